@@ -1,0 +1,55 @@
+//! The built-in synthetic scene, constructed in code so a fresh machine needs no data.
+//!
+//! A hall of 30 m x 20 m (x in [-15, 15], y in [-10, 10]) on a 1 m grid. An east-west
+//! corridor (|y| <= 3) carries people walking east and west; a north-south corridor
+//! (|x| <= 3) carries people walking north and south; where they cross, all four
+//! directions mix. Outside the corridors nobody was seen, so the map has no locations
+//! there and CLiFF-LHMP samples stop at the corridor walls.
+
+use std::f64::consts::{FRAC_PI_2, PI};
+
+use glam::DVec2;
+
+use super::{CliffMap, Component, Location};
+
+/// Half-width of each corridor (m).
+pub const CORRIDOR_HALF_WIDTH: f64 = 3.0;
+
+fn component(theta: f64, rho: f64, weight: f64) -> Component {
+    Component { theta, rho, cov: [0.12, 0.01, 0.01, 0.04], weight }
+}
+
+pub(super) fn demo_map() -> CliffMap {
+    let mut locations = Vec::new();
+    for iy in -10..=10 {
+        for ix in -15..=15 {
+            let (x, y) = (ix as f64, iy as f64);
+            let in_ew = y.abs() <= CORRIDOR_HALF_WIDTH;
+            let in_ns = x.abs() <= CORRIDOR_HALF_WIDTH;
+            let mut components = Vec::new();
+            if in_ew {
+                // Eastbound traffic keeps right (south side), westbound the north side.
+                let east = 0.5 - 0.1 * (y / CORRIDOR_HALF_WIDTH);
+                components.push(component(0.0, 1.3, east));
+                components.push(component(PI, 1.2, 1.0 - east));
+            }
+            if in_ns {
+                let north = 0.5 + 0.1 * (x / CORRIDOR_HALF_WIDTH);
+                components.push(component(FRAC_PI_2, 1.1, north));
+                components.push(component(3.0 * FRAC_PI_2, 1.0, 1.0 - north));
+            }
+            if components.is_empty() {
+                continue;
+            }
+            let total: f64 = components.iter().map(|c| c.weight).sum();
+            for c in &mut components {
+                c.weight /= total;
+            }
+            // Busiest in the crossing and along the corridor centre lines.
+            let d = y.abs().min(x.abs());
+            let observation_ratio = if in_ew && in_ns { 1.0 } else { 0.8 * (-d * d / 8.0).exp() + 0.1 };
+            locations.push(Location { position: DVec2::new(x, y), components, motion_ratio: 1.0, observation_ratio });
+        }
+    }
+    CliffMap::with_grid_step(locations, Some(1.0)).expect("the demo scene is a valid map")
+}

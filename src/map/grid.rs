@@ -1,0 +1,188 @@
+//! A dense grid index over map locations.
+//!
+//! CLiFF-map locations sit on a regular grid, so each grid cell holds at most one
+//! location. A radius query visits only the `(2m + 1)^2` cells around the query point
+//! with `m = ceil(radius / step)`, never the whole map.
+
+use glam::DVec2;
+
+use super::MapError;
+
+const EMPTY: u32 = u32::MAX;
+
+/// Maps grid cells to location indices.
+#[derive(Debug, Clone)]
+pub struct GridIndex {
+    origin: DVec2,
+    step: f64,
+    nx: usize,
+    ny: usize,
+    cells: Vec<u32>,
+}
+
+/// Tolerance, as a share of the step, for a coordinate to count as on the grid.
+const ON_GRID_TOLERANCE: f64 = 1e-3;
+
+fn infer_step(values: impl Iterator<Item = f64>) -> Option<f64> {
+    let mut v: Vec<f64> = values.collect();
+    v.sort_by(|a, b| a.total_cmp(b));
+    v.windows(2).map(|w| w[1] - w[0]).filter(|d| *d > 1e-6).min_by(|a, b| a.total_cmp(b))
+}
+
+impl GridIndex {
+    /// Index `positions` on a grid of `step` metres (inferred from the smallest
+    /// spacing of the coordinates when `None`; 1 m for a single location).
+    ///
+    /// Fails when a position is off the grid or two positions share a cell.
+    pub fn new(positions: &[DVec2], step: Option<f64>) -> Result<Self, MapError> {
+        if positions.is_empty() {
+            return Err(MapError::Empty);
+        }
+        let step = match step {
+            Some(s) => s,
+            None => {
+                let sx = infer_step(positions.iter().map(|p| p.x));
+                let sy = infer_step(positions.iter().map(|p| p.y));
+                match (sx, sy) {
+                    (Some(a), Some(b)) => a.min(b),
+                    (Some(a), None) | (None, Some(a)) => a,
+                    (None, None) => 1.0,
+                }
+            }
+        };
+        if !(step.is_finite() && step > 0.0) {
+            return Err(MapError::Location {
+                index: 0,
+                x: positions[0].x,
+                y: positions[0].y,
+                message: format!("grid step {step} is not positive"),
+            });
+        }
+        let lo = positions.iter().fold(DVec2::splat(f64::INFINITY), |a, p| a.min(*p));
+        let hi = positions.iter().fold(DVec2::splat(f64::NEG_INFINITY), |a, p| a.max(*p));
+        let nx = ((hi.x - lo.x) / step).round() as usize + 1;
+        let ny = ((hi.y - lo.y) / step).round() as usize + 1;
+        if nx.saturating_mul(ny) > 64_000_000 {
+            return Err(MapError::Location {
+                index: 0,
+                x: lo.x,
+                y: lo.y,
+                message: format!("grid of {nx} x {ny} cells at step {step} m is too large"),
+            });
+        }
+        let mut cells = vec![EMPTY; nx * ny];
+        for (i, p) in positions.iter().enumerate() {
+            let fx = (p.x - lo.x) / step;
+            let fy = (p.y - lo.y) / step;
+            let (cx, cy) = (fx.round(), fy.round());
+            if (fx - cx).abs() > ON_GRID_TOLERANCE || (fy - cy).abs() > ON_GRID_TOLERANCE {
+                return Err(MapError::Location {
+                    index: i,
+                    x: p.x,
+                    y: p.y,
+                    message: format!(
+                        "off the grid (step {step} m from ({}, {}))",
+                        lo.x, lo.y
+                    ),
+                });
+            }
+            let cell = &mut cells[cy as usize * nx + cx as usize];
+            if *cell != EMPTY {
+                return Err(MapError::Location {
+                    index: i,
+                    x: p.x,
+                    y: p.y,
+                    message: format!("same grid cell as location {}", *cell),
+                });
+            }
+            *cell = i as u32;
+        }
+        Ok(Self { origin: lo, step, nx, ny, cells })
+    }
+
+    /// The grid step (m).
+    pub fn step(&self) -> f64 {
+        self.step
+    }
+
+    /// The position of grid cell (0, 0).
+    pub fn origin(&self) -> DVec2 {
+        self.origin
+    }
+
+    /// Number of cells along x and y.
+    pub fn dims(&self) -> (usize, usize) {
+        (self.nx, self.ny)
+    }
+
+    /// Call `f` with every location whose cell lies within `radius` (plus half a cell)
+    /// of `p` along both axes: a superset of the locations within `radius`.
+    #[inline]
+    pub fn for_each_candidate(&self, p: DVec2, radius: f64, mut f: impl FnMut(usize)) {
+        let inv = 1.0 / self.step;
+        let fx = (p.x - self.origin.x) * inv;
+        let fy = (p.y - self.origin.y) * inv;
+        // Widened by the on-grid tolerance: positions may sit that far from their cell.
+        let r = radius * inv + ON_GRID_TOLERANCE;
+        if !(fx.is_finite() && fy.is_finite() && r.is_finite()) {
+            return;
+        }
+        // Cells whose centre is within r of p along each axis.
+        let x0 = (fx - r).ceil().max(0.0);
+        let x1 = (fx + r).floor().min(self.nx as f64 - 1.0);
+        let y0 = (fy - r).ceil().max(0.0);
+        let y1 = (fy + r).floor().min(self.ny as f64 - 1.0);
+        if x0 > x1 || y0 > y1 {
+            return;
+        }
+        let (x0, x1, y0, y1) = (x0 as usize, x1 as usize, y0 as usize, y1 as usize);
+        for cy in y0..=y1 {
+            let row = &self.cells[cy * self.nx + x0..=cy * self.nx + x1];
+            for &c in row {
+                if c != EMPTY {
+                    f(c as usize);
+                }
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn infers_step_and_finds_candidates_only_nearby() {
+        let pts: Vec<DVec2> = (0..10)
+            .flat_map(|i| (0..10).map(move |j| DVec2::new(-3.25 + 0.5 * i as f64, 1.75 + 0.5 * j as f64)))
+            .collect();
+        let g = GridIndex::new(&pts, None).unwrap();
+        assert!((g.step() - 0.5).abs() < 1e-12);
+        assert_eq!(g.dims(), (10, 10));
+        let p = DVec2::new(-1.0, 3.0);
+        let mut got = vec![];
+        g.for_each_candidate(p, 0.7071, |i| got.push(i));
+        // every true neighbour is a candidate, and candidates are few
+        for (i, q) in pts.iter().enumerate() {
+            if q.distance(p) < 0.7071 {
+                assert!(got.contains(&i));
+            }
+        }
+        assert!(got.len() <= 9, "{}", got.len());
+        // far outside: nothing
+        let mut n = 0;
+        g.for_each_candidate(DVec2::new(100.0, 100.0), 1.0, |_| n += 1);
+        assert_eq!(n, 0);
+        g.for_each_candidate(DVec2::new(f64::NAN, 0.0), 1.0, |_| n += 1);
+        assert_eq!(n, 0);
+    }
+
+    #[test]
+    fn rejects_off_grid_and_duplicates() {
+        let e = GridIndex::new(&[DVec2::ZERO, DVec2::new(1.0, 0.0), DVec2::new(1.5, 0.3)], Some(1.0)).unwrap_err();
+        assert!(e.to_string().contains("off the grid"), "{e}");
+        assert!(e.to_string().contains("location 2"), "{e}");
+        let e = GridIndex::new(&[DVec2::ZERO, DVec2::ZERO], Some(1.0)).unwrap_err();
+        assert!(e.to_string().contains("same grid cell"), "{e}");
+    }
+}

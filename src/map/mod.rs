@@ -1,0 +1,563 @@
+//! CLiFF-maps: per-location semi-wrapped Gaussian mixtures over velocity.
+//!
+//! A [`CliffMap`] holds [`Location`]s on a regular grid. Each location carries a
+//! mixture of [`Component`]s over (direction, speed) and the share of observations
+//! seen there ([`Location::observation_ratio`]).
+//!
+//! Locations keep the values they were given (so that a CSV file written back holds
+//! the same numbers); at construction the map derives sampling tables from them with
+//! every covariance clamped to positive semi-definite and every location's weights
+//! renormalised to sum to one. [`CliffMap::report`] counts what had to be fixed.
+//!
+//! ```
+//! use cliff::map::CliffMap;
+//! let map = CliffMap::demo();
+//! let info = map.info();
+//! assert!(info.locations > 100);
+//! // The location chosen by CLiFF-LHMP near a point in the demo hall:
+//! let near = map.best_near(glam::DVec2::new(0.0, 0.0), 1.0);
+//! assert!(near.is_some());
+//! ```
+
+mod csv;
+mod demo;
+mod grid;
+mod snapshot;
+
+use std::f64::consts::TAU;
+use std::path::Path;
+
+use glam::DVec2;
+use rand::{Rng, RngExt};
+use rand::distr::Distribution;
+use rand_distr::StandardNormal;
+use serde::{Deserialize, Serialize};
+
+pub use csv::{read_csv, read_csv_str, write_csv, write_csv_string};
+pub use grid::GridIndex;
+pub use snapshot::{SNAPSHOT_MAGIC, SNAPSHOT_VERSION, read_snapshot, write_snapshot};
+
+/// One semi-wrapped normal component of a location's velocity mixture.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Component {
+    /// Mean direction (rad, in `[0, 2pi)`).
+    pub theta: f64,
+    /// Mean speed (m/s).
+    pub rho: f64,
+    /// Covariance of (theta, rho), row-major: `[tt, tr, rt, rr]`.
+    pub cov: [f64; 4],
+    /// Mixing weight (per location the weights may sum to less than one).
+    pub weight: f64,
+}
+
+/// A map location: a grid node with its velocity mixture.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Location {
+    /// Position of the node (m).
+    pub position: DVec2,
+    /// Mixture components, in file order.
+    pub components: Vec<Component>,
+    /// Moving samples / all samples at this node (1 when standing samples are dropped).
+    pub motion_ratio: f64,
+    /// Samples seen here / the largest count of any node of the map, in `[0, 1]`.
+    pub observation_ratio: f64,
+}
+
+/// What was wrong with a map's values and was fixed when it was built.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct MapReport {
+    /// Components whose covariance was not symmetric positive semi-definite and was clamped.
+    pub clamped_covariances: usize,
+    /// Locations whose weights did not sum to one (within 1e-6) and were renormalised.
+    pub renormalised_locations: usize,
+}
+
+/// Summary figures of a map, as printed by `cliff map info`.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct MapInfo {
+    /// Number of locations.
+    pub locations: usize,
+    /// Number of components over all locations.
+    pub components: usize,
+    /// Smallest and largest number of components at one location.
+    pub components_per_location: (usize, usize),
+    /// Grid step (m).
+    pub grid_step: f64,
+    /// Extent of the locations: `(min, max)`.
+    pub extent: (DVec2, DVec2),
+    /// Smallest and largest observation ratio.
+    pub observation_ratio: (f64, f64),
+    /// Fixes applied when the map was built.
+    pub report: MapReport,
+}
+
+/// Errors from building, reading or writing maps.
+#[derive(Debug, thiserror::Error)]
+pub enum MapError {
+    /// A value in a file is unusable; names the file, line and column (1-based).
+    #[error("{file}:{line}: column {column}: {message}")]
+    Parse {
+        /// The file (or `<string>`).
+        file: String,
+        /// 1-based line number.
+        line: usize,
+        /// 1-based column number (0 when the whole line is meant).
+        column: usize,
+        /// What is wrong.
+        message: String,
+    },
+    /// A location breaks a map invariant (index into the location list).
+    #[error("location {index} at ({x}, {y}): {message}")]
+    Location {
+        /// Index of the location in the map.
+        index: usize,
+        /// x of the location.
+        x: f64,
+        /// y of the location.
+        y: f64,
+        /// What is wrong.
+        message: String,
+    },
+    /// The map has no locations.
+    #[error("the map has no locations")]
+    Empty,
+    /// A snapshot file is damaged or of another format.
+    #[error("{file}: not a valid cliff snapshot: {message}")]
+    Snapshot {
+        /// The file.
+        file: String,
+        /// What is wrong.
+        message: String,
+    },
+    /// The file's extension names no known map format.
+    #[error("{0}: unknown map format (use .csv for the published format or .cliff for a snapshot)")]
+    UnknownFormat(String),
+    /// Reading or writing failed.
+    #[error("{file}: {source}")]
+    Io {
+        /// The file.
+        file: String,
+        /// The underlying error.
+        source: std::io::Error,
+    },
+}
+
+/// The on-disk map formats.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum MapFormat {
+    /// The published CSV format (one row per component, no header).
+    Csv,
+    /// Our binary snapshot (postcard, magic, version, checksum).
+    Snapshot,
+}
+
+impl MapFormat {
+    /// The format named by a path's extension (`.csv` or `.cliff`).
+    pub fn from_path(path: &Path) -> Result<Self, MapError> {
+        match path.extension().and_then(|e| e.to_str()).map(|e| e.to_ascii_lowercase()) {
+            Some(e) if e == "csv" => Ok(Self::Csv),
+            Some(e) if e == "cliff" || e == "snapshot" => Ok(Self::Snapshot),
+            _ => Err(MapError::UnknownFormat(path.display().to_string())),
+        }
+    }
+}
+
+/// Per-component sampling table entry, precomputed at build time.
+#[derive(Debug, Clone, Copy)]
+struct DirectionComponent {
+    /// Cumulative normalised weight up to and including this component.
+    cum_weight: f64,
+    /// Mean direction.
+    mu: f64,
+    /// Standard deviation of the direction marginal of the PSD-clamped covariance.
+    sigma: f64,
+}
+
+/// A CLiFF-map: locations on a regular grid with a grid index and sampling tables.
+#[derive(Debug, Clone)]
+pub struct CliffMap {
+    locations: Vec<Location>,
+    grid: GridIndex,
+    /// Hot-loop copies (struct of arrays).
+    positions: Vec<DVec2>,
+    ratios: Vec<f64>,
+    comp_start: Vec<u32>,
+    table: Vec<DirectionComponent>,
+    report: MapReport,
+}
+
+/// Clamp a 2x2 covariance `[a, b; c, d]` to symmetric PSD. Returns the clamped matrix
+/// and whether anything changed (beyond rounding).
+pub fn clamp_psd(cov: [f64; 4]) -> ([f64; 4], bool) {
+    let a = cov[0];
+    let d = cov[3];
+    let b = 0.5 * (cov[1] + cov[2]);
+    let asym = (cov[1] - cov[2]).abs() > 1e-12 * (1.0 + cov[1].abs());
+    // Eigenvalues of the symmetric matrix.
+    let tr = a + d;
+    let det = a * d - b * b;
+    let disc = ((a - d) * 0.5).hypot(b);
+    let l1 = tr * 0.5 + disc;
+    let l2 = tr * 0.5 - disc;
+    if l2 >= 0.0 && det >= 0.0 {
+        return ([a, b, b, d], asym);
+    }
+    // Eigenvectors; reconstruct with negative eigenvalues set to zero.
+    let (v1, v2) = if b.abs() > 1e-300 {
+        let v1 = DVec2::new(l1 - d, b).normalize();
+        (v1, DVec2::new(-v1.y, v1.x))
+    } else if a >= d {
+        (DVec2::X, DVec2::Y)
+    } else {
+        (DVec2::Y, DVec2::X)
+    };
+    let l1 = l1.max(0.0);
+    let l2 = l2.max(0.0);
+    let m = |i: usize, j: usize| l1 * v1[i] * v1[j] + l2 * v2[i] * v2[j];
+    let off = m(0, 1);
+    ([m(0, 0), off, off, m(1, 1)], true)
+}
+
+/// Wrap an angle to `[0, 2pi)`.
+#[inline]
+pub fn wrap_2pi(a: f64) -> f64 {
+    let w = a.rem_euclid(TAU);
+    if w >= TAU { 0.0 } else { w }
+}
+
+impl CliffMap {
+    /// Build a map from locations, inferring the grid step from their positions.
+    ///
+    /// Fails when there are no locations, when a location is off the grid, shares its
+    /// position with another, or holds a non-finite or negative value.
+    pub fn new(locations: Vec<Location>) -> Result<Self, MapError> {
+        Self::with_grid_step(locations, None)
+    }
+
+    /// Build a map from locations on a grid of the given step (m); `None` infers it.
+    pub fn with_grid_step(locations: Vec<Location>, step: Option<f64>) -> Result<Self, MapError> {
+        if locations.is_empty() {
+            return Err(MapError::Empty);
+        }
+        for (i, loc) in locations.iter().enumerate() {
+            validate_location(i, loc)?;
+        }
+        let positions: Vec<DVec2> = locations.iter().map(|l| l.position).collect();
+        let grid = GridIndex::new(&positions, step)?;
+        let ratios = locations.iter().map(|l| l.observation_ratio).collect();
+        let mut comp_start = Vec::with_capacity(locations.len() + 1);
+        let mut table = Vec::new();
+        let mut report = MapReport::default();
+        for loc in &locations {
+            comp_start.push(table.len() as u32);
+            let total: f64 = loc.components.iter().map(|c| c.weight).sum();
+            if (total - 1.0).abs() > 1e-6 {
+                report.renormalised_locations += 1;
+            }
+            let mut cum = 0.0;
+            for c in &loc.components {
+                let (cov, fixed) = clamp_psd(c.cov);
+                if fixed {
+                    report.clamped_covariances += 1;
+                }
+                cum += c.weight / total;
+                table.push(DirectionComponent { cum_weight: cum, mu: c.theta, sigma: cov[0].max(0.0).sqrt() });
+            }
+            // Guard against rounding: the last cumulative weight is exactly one.
+            if let Some(last) = table.last_mut() {
+                last.cum_weight = 1.0;
+            }
+        }
+        comp_start.push(table.len() as u32);
+        Ok(Self { locations, grid, positions, ratios, comp_start, table, report })
+    }
+
+    /// Read a map from a file, by extension: `.csv` (published format) or `.cliff` (snapshot).
+    pub fn load(path: impl AsRef<Path>) -> Result<Self, MapError> {
+        let path = path.as_ref();
+        match MapFormat::from_path(path)? {
+            MapFormat::Csv => read_csv(path),
+            MapFormat::Snapshot => read_snapshot(path),
+        }
+    }
+
+    /// Write the map to a file, by extension: `.csv` or `.cliff`.
+    pub fn save(&self, path: impl AsRef<Path>) -> Result<(), MapError> {
+        let path = path.as_ref();
+        match MapFormat::from_path(path)? {
+            MapFormat::Csv => write_csv(self, path),
+            MapFormat::Snapshot => write_snapshot(self, path),
+        }
+    }
+
+    /// The built-in synthetic scene: a 30 m x 20 m hall with two crossing pedestrian
+    /// flows (east-west along the hall, north-south across it) and a mixed crossing.
+    pub fn demo() -> Self {
+        demo::demo_map()
+    }
+
+    /// The locations, in the order they were given.
+    pub fn locations(&self) -> &[Location] {
+        &self.locations
+    }
+
+    /// Take the locations out of the map (to edit them and build a new map).
+    pub fn into_locations(self) -> Vec<Location> {
+        self.locations
+    }
+
+    /// The grid index.
+    pub fn grid(&self) -> &GridIndex {
+        &self.grid
+    }
+
+    /// What was fixed when the map was built.
+    pub fn report(&self) -> MapReport {
+        self.report
+    }
+
+    /// Summary figures of the map.
+    pub fn info(&self) -> MapInfo {
+        let counts = self.locations.iter().map(|l| l.components.len());
+        let min_c = counts.clone().min().unwrap_or(0);
+        let max_c = counts.max().unwrap_or(0);
+        let mut lo = DVec2::splat(f64::INFINITY);
+        let mut hi = DVec2::splat(f64::NEG_INFINITY);
+        let mut rlo = f64::INFINITY;
+        let mut rhi = f64::NEG_INFINITY;
+        for l in &self.locations {
+            lo = lo.min(l.position);
+            hi = hi.max(l.position);
+            rlo = rlo.min(l.observation_ratio);
+            rhi = rhi.max(l.observation_ratio);
+        }
+        MapInfo {
+            locations: self.locations.len(),
+            components: self.table.len(),
+            components_per_location: (min_c, max_c),
+            grid_step: self.grid.step(),
+            extent: (lo, hi),
+            observation_ratio: (rlo, rhi),
+            report: self.report,
+        }
+    }
+
+    /// Call `f` with the index of every location strictly within `radius` of `p`.
+    /// Touches only the grid cells that can hold such a location.
+    #[inline]
+    pub fn for_each_near(&self, p: DVec2, radius: f64, mut f: impl FnMut(usize)) {
+        let r2 = radius * radius;
+        self.grid.for_each_candidate(p, radius, |i| {
+            if self.positions[i].distance_squared(p) < r2 {
+                f(i);
+            }
+        });
+    }
+
+    /// The location CLiFF-LHMP samples from at `p`: of the locations strictly within
+    /// `radius`, the one with the largest observation ratio (ties: the first in order).
+    #[inline]
+    pub fn best_near(&self, p: DVec2, radius: f64) -> Option<usize> {
+        let r2 = radius * radius;
+        let mut best: Option<usize> = None;
+        let mut best_ratio = f64::NEG_INFINITY;
+        self.grid.for_each_candidate(p, radius, |i| {
+            if self.positions[i].distance_squared(p) < r2 {
+                let r = self.ratios[i];
+                if r > best_ratio || (r == best_ratio && best.is_some_and(|b| i < b)) {
+                    best_ratio = r;
+                    best = Some(i);
+                }
+            }
+        });
+        best
+    }
+
+    /// The nearest location within `radius` of `p` (ties: the first in order).
+    pub fn nearest(&self, p: DVec2, radius: f64) -> Option<usize> {
+        let mut best: Option<(f64, usize)> = None;
+        self.for_each_near(p, radius, |i| {
+            let d = self.positions[i].distance_squared(p);
+            if best.is_none_or(|(bd, bi)| d < bd || (d == bd && i < bi)) {
+                best = Some((d, i));
+            }
+        });
+        best.map(|(_, i)| i)
+    }
+
+    /// The direction distribution of location `index`: a draw picks a component by
+    /// weight and returns a direction from its (PSD-clamped) normal, wrapped to `[0, 2pi)`.
+    ///
+    /// Only the direction marginal is drawn: CLiFF-LHMP keeps the sampled direction and
+    /// discards the sampled speed, and the marginal of a bivariate normal is exactly
+    /// the normal of its first coordinate.
+    #[inline]
+    pub fn direction_at(&self, index: usize) -> DirectionSampler<'_> {
+        let a = self.comp_start[index] as usize;
+        let b = self.comp_start[index + 1] as usize;
+        DirectionSampler { table: &self.table[a..b] }
+    }
+}
+
+/// Sampling a direction at one location, as a [`Distribution`] (see [`CliffMap::direction_at`]).
+#[derive(Debug, Clone, Copy)]
+pub struct DirectionSampler<'a> {
+    table: &'a [DirectionComponent],
+}
+
+impl Distribution<f64> for DirectionSampler<'_> {
+    #[inline]
+    fn sample<R: Rng + ?Sized>(&self, rng: &mut R) -> f64 {
+        let u: f64 = rng.random();
+        let mut c = &self.table[0];
+        for e in self.table {
+            c = e;
+            if u < e.cum_weight {
+                break;
+            }
+        }
+        let z: f64 = StandardNormal.sample(rng);
+        wrap_2pi(c.mu + c.sigma * z)
+    }
+}
+
+fn validate_location(index: usize, loc: &Location) -> Result<(), MapError> {
+    let err = |message: String| MapError::Location { index, x: loc.position.x, y: loc.position.y, message };
+    if !loc.position.is_finite() {
+        return Err(err("position is not finite".into()));
+    }
+    if loc.components.is_empty() {
+        return Err(err("no components".into()));
+    }
+    if !(loc.observation_ratio.is_finite() && (0.0..=1.0 + 1e-9).contains(&loc.observation_ratio)) {
+        return Err(err(format!("observation ratio {} is not in [0, 1]", loc.observation_ratio)));
+    }
+    if !(loc.motion_ratio.is_finite() && loc.motion_ratio >= 0.0) {
+        return Err(err(format!("motion ratio {} is negative or not finite", loc.motion_ratio)));
+    }
+    let mut total = 0.0;
+    for (j, c) in loc.components.iter().enumerate() {
+        let vals = [c.theta, c.rho, c.cov[0], c.cov[1], c.cov[2], c.cov[3], c.weight];
+        if vals.iter().any(|v| !v.is_finite()) {
+            return Err(err(format!("component {j} has a non-finite value")));
+        }
+        if c.rho < 0.0 {
+            return Err(err(format!("component {j} has negative speed {}", c.rho)));
+        }
+        if c.weight < 0.0 {
+            return Err(err(format!("component {j} has negative weight {}", c.weight)));
+        }
+        total += c.weight;
+    }
+    if total <= 0.0 {
+        return Err(err("component weights sum to zero".into()));
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn comp(theta: f64, w: f64) -> Component {
+        Component { theta, rho: 1.0, cov: [0.1, 0.0, 0.0, 0.1], weight: w }
+    }
+
+    fn loc(x: f64, y: f64, ratio: f64, comps: Vec<Component>) -> Location {
+        Location { position: DVec2::new(x, y), components: comps, motion_ratio: 1.0, observation_ratio: ratio }
+    }
+
+    #[test]
+    fn clamp_psd_fixes_negative_eigenvalue_and_keeps_good_ones() {
+        let good = [0.2, 0.05, 0.05, 0.1];
+        assert_eq!(clamp_psd(good), (good, false));
+        let (c, fixed) = clamp_psd([0.1, 0.2, 0.2, 0.1]); // eigenvalues 0.3, -0.1
+        assert!(fixed);
+        let det = c[0] * c[3] - c[1] * c[2];
+        assert!(det > -1e-12 && c[0] >= 0.0 && c[3] >= 0.0, "{c:?}");
+        assert!((c[0] - 0.15).abs() < 1e-12 && (c[1] - 0.15).abs() < 1e-12);
+        let (c, fixed) = clamp_psd([-0.5, 0.0, 0.0, 0.2]);
+        assert!(fixed);
+        assert!(c[0] == 0.0 && c[1] == 0.0 && (c[3] - 0.2).abs() < 1e-12, "{c:?}");
+    }
+
+    #[test]
+    fn renormalises_weights_and_reports() {
+        let m = CliffMap::new(vec![loc(0.0, 0.0, 1.0, vec![comp(0.0, 0.2), comp(1.0, 0.2)])]).unwrap();
+        assert_eq!(m.report().renormalised_locations, 1);
+        assert_eq!(m.report().clamped_covariances, 0);
+        // raw values are kept
+        assert_eq!(m.locations()[0].components[0].weight, 0.2);
+    }
+
+    #[test]
+    fn best_near_takes_largest_ratio_first_on_ties() {
+        let m = CliffMap::new(vec![
+            loc(0.0, 0.0, 0.5, vec![comp(0.0, 1.0)]),
+            loc(1.0, 0.0, 0.9, vec![comp(0.0, 1.0)]),
+            loc(0.0, 1.0, 0.9, vec![comp(0.0, 1.0)]),
+            loc(5.0, 5.0, 1.0, vec![comp(0.0, 1.0)]),
+        ])
+        .unwrap();
+        assert_eq!(m.best_near(DVec2::new(0.4, 0.4), 1.0), Some(1));
+        assert_eq!(m.best_near(DVec2::new(0.1, 0.1), 0.5), Some(0));
+        assert_eq!(m.best_near(DVec2::new(2.5, 2.5), 1.0), None);
+        assert_eq!(m.nearest(DVec2::new(0.1, 0.6), 1.0), Some(2));
+        // strictly within: a location at exactly the radius is not near
+        assert_eq!(m.best_near(DVec2::new(0.0, -1.0), 1.0), None);
+    }
+
+    #[test]
+    fn rejects_bad_locations() {
+        assert!(matches!(CliffMap::new(vec![]), Err(MapError::Empty)));
+        let mut l = loc(0.0, 0.0, 1.0, vec![comp(0.0, 1.0)]);
+        l.components[0].rho = -1.0;
+        let e = CliffMap::new(vec![l]).unwrap_err().to_string();
+        assert!(e.contains("negative speed"), "{e}");
+        let mut l = loc(0.0, 0.0, 1.0, vec![comp(0.0, 1.0)]);
+        l.components[0].cov[1] = f64::NAN;
+        assert!(CliffMap::new(vec![l]).unwrap_err().to_string().contains("non-finite"));
+        let l = loc(0.0, 0.0, 1.0, vec![comp(0.0, 0.0)]);
+        assert!(CliffMap::new(vec![l]).unwrap_err().to_string().contains("sum to zero"));
+    }
+
+    #[test]
+    fn direction_sampler_wraps_around_zero() {
+        use rand::SeedableRng;
+        let mut c = comp(0.05, 1.0);
+        c.cov[0] = 0.01;
+        let m = CliffMap::new(vec![loc(0.0, 0.0, 1.0, vec![c])]).unwrap();
+        let mut rng = rand_xoshiro::Xoshiro256PlusPlus::seed_from_u64(1);
+        let d = m.direction_at(0);
+        let mut wrapped = 0;
+        let (mut s, mut co) = (0.0, 0.0);
+        for _ in 0..20000 {
+            let t: f64 = d.sample(&mut rng);
+            assert!((0.0..TAU).contains(&t));
+            if t > 3.0 {
+                wrapped += 1;
+            }
+            s += t.sin();
+            co += t.cos();
+        }
+        // about 31% of draws from N(0.05, 0.1^2) fall below zero and wrap
+        assert!((5000..7500).contains(&wrapped), "{wrapped}");
+        let mean = wrap_2pi(s.atan2(co));
+        assert!((mean - 0.05).abs() < 0.01, "{mean}");
+    }
+
+    #[test]
+    fn direction_sampler_follows_weights() {
+        use rand::SeedableRng;
+        let mut a = comp(1.0, 3.0);
+        a.cov[0] = 1e-6;
+        let mut b = comp(4.0, 1.0);
+        b.cov[0] = 1e-6;
+        let m = CliffMap::new(vec![loc(0.0, 0.0, 1.0, vec![a, b])]).unwrap();
+        let mut rng = rand_xoshiro::Xoshiro256PlusPlus::seed_from_u64(7);
+        let n = 40000;
+        let near_a = (0..n).filter(|_| (m.direction_at(0).sample(&mut rng) - 1.0).abs() < 0.1).count();
+        let share = near_a as f64 / n as f64;
+        assert!((share - 0.75).abs() < 0.01, "{share}");
+    }
+}

@@ -1,0 +1,85 @@
+//! The reusable, flat buffer of sampled trajectories.
+
+/// A predicted position `[x, y]` in metres (f32 is ample for buildings: micrometres at 100 m).
+pub type Point = [f32; 2];
+
+/// A batch of sampled trajectories: `agents x k` samples of `steps` positions each,
+/// stored flat (sample-major), plus the valid length of each sample (a CLiFF-LHMP sample
+/// stops where the map has no data).
+///
+/// Reuse one batch between calls: [`reshape`](Self::reshape) keeps the allocation.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct TrajectoryBatch {
+    agents: usize,
+    k: usize,
+    steps: usize,
+    positions: Vec<Point>,
+    lens: Vec<u32>,
+}
+
+/// Mutable views of the two buffers a prediction writes: `positions` holds
+/// `agents x k x steps` points and `lens` the `agents x k` valid lengths.
+#[derive(Debug)]
+pub struct BatchMut<'a> {
+    /// Positions, sample-major: sample `a * k + s`, step `j` at `(a * k + s) * steps + j`.
+    pub positions: &'a mut [Point],
+    /// Valid length of each sample.
+    pub lens: &'a mut [u32],
+}
+
+impl TrajectoryBatch {
+    /// An empty batch.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Set the shape, growing the buffers only when they are too small.
+    pub fn reshape(&mut self, agents: usize, k: usize, steps: usize) {
+        self.agents = agents;
+        self.k = k;
+        self.steps = steps;
+        self.positions.resize(agents * k * steps, [f32::NAN; 2]);
+        self.lens.resize(agents * k, 0);
+    }
+
+    /// `(agents, k, steps)`.
+    pub fn shape(&self) -> (usize, usize, usize) {
+        (self.agents, self.k, self.steps)
+    }
+
+    /// All positions, sample-major.
+    pub fn positions(&self) -> &[Point] {
+        &self.positions
+    }
+
+    /// The valid length of every sample.
+    pub fn lens(&self) -> &[u32] {
+        &self.lens
+    }
+
+    /// Valid length of sample `s` of agent `a`.
+    pub fn len(&self, a: usize, s: usize) -> usize {
+        self.lens[a * self.k + s] as usize
+    }
+
+    /// True when the batch holds no samples.
+    pub fn is_empty(&self) -> bool {
+        self.lens.is_empty()
+    }
+
+    /// The valid positions of sample `s` of agent `a`.
+    pub fn sample(&self, a: usize, s: usize) -> &[Point] {
+        &self.full_sample(a, s)[..self.len(a, s)]
+    }
+
+    /// All `steps` positions of sample `s` of agent `a` (NaN past the valid length).
+    pub fn full_sample(&self, a: usize, s: usize) -> &[Point] {
+        let i = (a * self.k + s) * self.steps;
+        &self.positions[i..i + self.steps]
+    }
+
+    /// Mutable views of the buffers, for [`predict_into`](super::predict_into).
+    pub fn as_mut(&mut self) -> BatchMut<'_> {
+        BatchMut { positions: &mut self.positions, lens: &mut self.lens }
+    }
+}

@@ -1,0 +1,442 @@
+//! CLiFF-LHMP and constant-velocity prediction into reusable batch buffers.
+//!
+//! [`predict`] rolls `k` samples forward for every agent and writes them into a
+//! caller-owned [`TrajectoryBatch`] (or, through [`predict_into`], into any pair of
+//! slices such as a shared-memory response). Once the buffer is sized, a call does not
+//! allocate. One `Xoshiro256PlusPlus` generator per call, seeded from
+//! [`Params::seed`], draws for the agents in order, then their samples in order: the
+//! same map, states and parameters give the same bytes.
+//!
+//! ```
+//! use cliff::map::CliffMap;
+//! use cliff::motion::State;
+//! use cliff::predict::{predict, Params, TrajectoryBatch};
+//! use glam::DVec2;
+//!
+//! let map = CliffMap::demo();
+//! let walker = State { position: DVec2::new(-10.0, 0.5), speed: 1.2, heading: 0.0, time: 0.0 };
+//! let params = Params { k: 20, dt: 0.4, horizon: 12.0, ..Params::default() };
+//! let mut batch = TrajectoryBatch::new();
+//! predict(&map, &[walker], &params, &mut batch).unwrap();
+//! assert_eq!(batch.shape(), (1, 20, 30));
+//! let first = batch.sample(0, 0);
+//! assert!(!first.is_empty() && first[0][0] > -10.0); // moving east
+//! ```
+
+mod batch;
+
+use std::f64::consts::PI;
+use std::fmt;
+use std::str::FromStr;
+
+use glam::DVec2;
+use rand::SeedableRng;
+use rand::distr::Distribution;
+use rand_xoshiro::Xoshiro256PlusPlus;
+
+use crate::map::{CliffMap, wrap_2pi};
+use crate::motion::State;
+
+pub use batch::{BatchMut, Point, TrajectoryBatch};
+
+/// Prediction method.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub enum Method {
+    /// CLiFF-LHMP: constant velocity bent towards directions sampled from the map.
+    #[default]
+    Cliff,
+    /// Constant velocity: never turns, never stops.
+    Cvm,
+}
+
+impl Method {
+    /// The method's name on the command line and in reports (`cliff`, `cvm`).
+    pub fn name(self) -> &'static str {
+        match self {
+            Method::Cliff => "cliff",
+            Method::Cvm => "cvm",
+        }
+    }
+}
+
+impl fmt::Display for Method {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl FromStr for Method {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s.trim().to_ascii_lowercase().as_str() {
+            "cliff" | "cliff-lhmp" | "lhmp" | "mod" => Ok(Method::Cliff),
+            "cvm" | "cv" | "constant-velocity" => Ok(Method::Cvm),
+            other => Err(format!("unknown method '{other}' (expected cliff or cvm)")),
+        }
+    }
+}
+
+/// How CLiFF-LHMP bends the heading towards a sampled direction.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub enum HeadingRule {
+    /// The reference implementation: circular weighted mean of the sampled direction
+    /// (weight `lambda`) and the current heading (weight `1 - lambda`).
+    #[default]
+    CircularMean,
+    /// The paper's formula: `theta + lambda * signed_delta`.
+    Paper,
+}
+
+impl FromStr for HeadingRule {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s.trim().to_ascii_lowercase().as_str() {
+            "circular-mean" | "reference" => Ok(HeadingRule::CircularMean),
+            "paper" => Ok(HeadingRule::Paper),
+            other => Err(format!("unknown heading rule '{other}' (expected circular-mean or paper)")),
+        }
+    }
+}
+
+/// Prediction parameters.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Params {
+    /// Method.
+    pub method: Method,
+    /// Samples per agent.
+    pub k: usize,
+    /// Time step (s).
+    pub dt: f64,
+    /// Prediction horizon (s); the number of steps is `floor(horizon / dt)`.
+    pub horizon: f64,
+    /// Kernel parameter: how strongly the heading turns to the sampled direction.
+    pub beta: f64,
+    /// Sampling radius (m): map locations strictly within it are near. (The reference's
+    /// `r_s = 0.5` compares squared distances with 0.5: pass `sqrt(0.5) = 0.7071`.)
+    pub radius: f64,
+    /// Seed of the call's random generator.
+    pub seed: u64,
+    /// Heading update rule.
+    pub heading: HeadingRule,
+}
+
+impl Default for Params {
+    /// THÖR settings of the paper: k 20, dt 0.4 s, 12 s, beta 1, radius 0.7071 m.
+    fn default() -> Self {
+        Self {
+            method: Method::Cliff,
+            k: 20,
+            dt: 0.4,
+            horizon: 12.0,
+            beta: 1.0,
+            radius: std::f64::consts::FRAC_1_SQRT_2,
+            seed: 0,
+            heading: HeadingRule::CircularMean,
+        }
+    }
+}
+
+/// Steps in `horizon` seconds at `dt`: `floor(horizon / dt)`, robust to rounding just
+/// below a whole number (12 / 0.4 is 30).
+pub fn steps_for(horizon: f64, dt: f64) -> usize {
+    let s = horizon / dt;
+    let r = s.round();
+    if (s - r).abs() < 1e-9 { r as usize } else { s.floor() as usize }
+}
+
+impl Params {
+    /// Number of predicted positions per sample.
+    pub fn steps(&self) -> usize {
+        steps_for(self.horizon, self.dt)
+    }
+
+    /// Check every parameter; the error names the first one that is unusable.
+    pub fn validate(&self) -> Result<(), PredictError> {
+        let bad = |name: &'static str, why: String| Err(PredictError::Param { name, why });
+        if self.k == 0 {
+            return bad("k", "must be at least 1".into());
+        }
+        if !(self.dt.is_finite() && self.dt > 0.0) {
+            return bad("dt", format!("{} is not a positive number", self.dt));
+        }
+        if !(self.horizon.is_finite() && self.horizon >= 0.0) {
+            return bad("horizon", format!("{} is not a non-negative number", self.horizon));
+        }
+        if self.horizon / self.dt > 1e7 {
+            return bad("horizon", format!("{} s at dt {} is more than 10^7 steps", self.horizon, self.dt));
+        }
+        if !(self.beta.is_finite() && self.beta >= 0.0) {
+            return bad("beta", format!("{} is not a non-negative number", self.beta));
+        }
+        if !(self.radius.is_finite() && self.radius > 0.0) {
+            return bad("radius", format!("{} is not a positive number", self.radius));
+        }
+        Ok(())
+    }
+}
+
+/// Errors from a prediction call.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum PredictError {
+    /// A parameter is unusable.
+    #[error("parameter {name}: {why}")]
+    Param {
+        /// The parameter.
+        name: &'static str,
+        /// What is wrong.
+        why: String,
+    },
+    /// An agent's state holds a non-finite number or a negative speed.
+    #[error("agent {0}: state has a non-finite value or negative speed")]
+    State(usize),
+    /// The output buffers do not have the shape the call needs.
+    #[error("output buffer holds {got} positions and {got_lens} lengths, the call needs {need} and {need_lens}")]
+    Shape {
+        /// Positions in the buffer.
+        got: usize,
+        /// Lengths in the buffer.
+        got_lens: usize,
+        /// Positions needed.
+        need: usize,
+        /// Lengths needed.
+        need_lens: usize,
+    },
+}
+
+/// Predict `params.k` samples for every agent into `out`, resizing it as needed
+/// (no allocation once it has held a batch at least this large).
+pub fn predict(map: &CliffMap, agents: &[State], params: &Params, out: &mut TrajectoryBatch) -> Result<(), PredictError> {
+    params.validate()?;
+    out.reshape(agents.len(), params.k, params.steps());
+    predict_into(map, agents, params, out.as_mut())
+}
+
+/// Predict into caller-provided slices (for example a shared-memory response):
+/// `out.positions` holds `agents x k x steps` points, sample-major, and `out.lens`
+/// the valid length of each of the `agents x k` samples. Points past a sample's valid
+/// length are set to NaN.
+pub fn predict_into(map: &CliffMap, agents: &[State], params: &Params, out: BatchMut<'_>) -> Result<(), PredictError> {
+    params.validate()?;
+    let steps = params.steps();
+    let samples = agents.len() * params.k;
+    let need = samples * steps;
+    if out.positions.len() != need || out.lens.len() != samples {
+        return Err(PredictError::Shape { got: out.positions.len(), got_lens: out.lens.len(), need, need_lens: samples });
+    }
+    if let Some(i) = agents.iter().position(|s| !(s.position.is_finite() && s.speed.is_finite() && s.heading.is_finite() && s.speed >= 0.0)) {
+        return Err(PredictError::State(i));
+    }
+    let mut rng = Xoshiro256PlusPlus::seed_from_u64(params.seed);
+    if steps == 0 {
+        out.lens.fill(0);
+        return Ok(());
+    }
+    for (a, state) in agents.iter().enumerate() {
+        for s in 0..params.k {
+            let idx = a * params.k + s;
+            let track = &mut out.positions[idx * steps..(idx + 1) * steps];
+            let len = match params.method {
+                Method::Cvm => roll_cvm(state, params.dt, track),
+                Method::Cliff => roll_cliff(map, state, params, &mut rng, track),
+            };
+            out.lens[idx] = len as u32;
+            track[len..].fill([f32::NAN; 2]);
+        }
+    }
+    Ok(())
+}
+
+fn roll_cvm(state: &State, dt: f64, track: &mut [Point]) -> usize {
+    let step = DVec2::from_angle(state.heading) * (state.speed * dt);
+    let mut p = state.position;
+    for out in track.iter_mut() {
+        p += step;
+        *out = [p.x as f32, p.y as f32];
+    }
+    track.len()
+}
+
+/// One CLiFF-LHMP sample; returns how many steps it made before leaving the map.
+#[inline]
+fn roll_cliff(map: &CliffMap, state: &State, params: &Params, rng: &mut Xoshiro256PlusPlus, track: &mut [Point]) -> usize {
+    let dist = state.speed * params.dt;
+    let mut p = state.position;
+    let mut theta = wrap_2pi(state.heading);
+    let mut u = DVec2::from_angle(theta);
+    for (i, out) in track.iter_mut().enumerate() {
+        let Some(loc) = map.best_near(p, params.radius) else {
+            return i;
+        };
+        let ts: f64 = map.direction_at(loc).sample(rng);
+        let us = DVec2::from_angle(ts);
+        match params.heading {
+            HeadingRule::CircularMean => {
+                // |shortest angle| between the sample and the heading, in [0, pi].
+                let delta = us.dot(u).clamp(-1.0, 1.0).acos();
+                let lambda = (-params.beta * delta * delta).exp();
+                let v = us * lambda + u * (1.0 - lambda);
+                let n = v.length();
+                u = if n > 1e-12 { v / n } else { DVec2::X };
+            }
+            HeadingRule::Paper => {
+                let mut signed = ts - theta;
+                if signed > PI {
+                    signed -= 2.0 * PI;
+                } else if signed < -PI {
+                    signed += 2.0 * PI;
+                }
+                let lambda = (-params.beta * signed * signed).exp();
+                theta = wrap_2pi(theta + lambda * signed);
+                u = DVec2::from_angle(theta);
+            }
+        }
+        p += u * dist;
+        *out = [p.x as f32, p.y as f32];
+    }
+    track.len()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::map::{Component, Location};
+
+    fn walker(x: f64, y: f64, heading: f64) -> State {
+        State { position: DVec2::new(x, y), speed: 1.0, heading, time: 0.0 }
+    }
+
+    #[test]
+    fn cvm_moves_straight_and_never_stops() {
+        let map = CliffMap::demo();
+        let params = Params { method: Method::Cvm, k: 2, dt: 0.5, horizon: 100.0, ..Params::default() };
+        let mut b = TrajectoryBatch::new();
+        predict(&map, &[walker(0.0, 0.0, PI / 2.0)], &params, &mut b).unwrap();
+        assert_eq!(b.shape(), (1, 2, 200));
+        let s = b.sample(0, 1);
+        assert_eq!(s.len(), 200);
+        assert!((s[199][1] - 100.0).abs() < 1e-3 && s[199][0].abs() < 1e-3);
+    }
+
+    #[test]
+    fn same_seed_same_bytes_other_seed_other_bytes() {
+        let map = CliffMap::demo();
+        let agents = [walker(-10.0, 0.0, 0.0), walker(0.0, -8.0, PI / 2.0)];
+        let p = Params { seed: 42, ..Params::default() };
+        let (mut a, mut b, mut c) = (TrajectoryBatch::new(), TrajectoryBatch::new(), TrajectoryBatch::new());
+        predict(&map, &agents, &p, &mut a).unwrap();
+        predict(&map, &agents, &p, &mut b).unwrap();
+        predict(&map, &agents, &Params { seed: 43, ..p }, &mut c).unwrap();
+        let bits = |t: &TrajectoryBatch| t.positions().iter().flatten().map(|v| v.to_bits()).collect::<Vec<_>>();
+        assert_eq!(bits(&a), bits(&b));
+        assert_eq!(a.lens(), b.lens());
+        assert_ne!(bits(&a), bits(&c));
+    }
+
+    #[test]
+    fn sample_stops_where_no_location_is_near() {
+        // a single location at the origin; walking east from it at 1 m/s, 1 s steps
+        let map = CliffMap::new(vec![Location {
+            position: DVec2::ZERO,
+            components: vec![Component { theta: 0.0, rho: 1.0, cov: [1e-8, 0.0, 0.0, 0.01], weight: 1.0 }],
+            motion_ratio: 1.0,
+            observation_ratio: 1.0,
+        }])
+        .unwrap();
+        let params = Params { k: 3, dt: 1.0, horizon: 5.0, radius: 1.5, ..Params::default() };
+        let mut b = TrajectoryBatch::new();
+        predict(&map, &[walker(0.0, 0.0, 0.0), walker(5.0, 5.0, 0.0)], &params, &mut b).unwrap();
+        // at x=0 and x=1 the location is near; from x=2 on it is not: 2 steps
+        for s in 0..3 {
+            assert_eq!(b.len(0, s), 2);
+            assert!((b.sample(0, s)[1][0] - 2.0).abs() < 1e-3);
+            assert!(b.full_sample(0, s)[2][0].is_nan());
+        }
+        // starting off the map: nothing
+        assert_eq!(b.len(1, 0), 0);
+        assert!(b.sample(1, 0).is_empty());
+    }
+
+    #[test]
+    fn heading_turns_towards_sampled_direction_across_zero() {
+        // map says "go at 0.1 rad" everywhere; agent heads at 2pi - 0.3
+        let mut locs = vec![];
+        for ix in -5..=30 {
+            for iy in -10..=10 {
+                locs.push(Location {
+                    position: DVec2::new(ix as f64, iy as f64),
+                    components: vec![Component { theta: 0.1, rho: 1.0, cov: [1e-10, 0.0, 0.0, 0.01], weight: 1.0 }],
+                    motion_ratio: 1.0,
+                    observation_ratio: 1.0,
+                });
+            }
+        }
+        let map = CliffMap::new(locs).unwrap();
+        for rule in [HeadingRule::CircularMean, HeadingRule::Paper] {
+            let params = Params { k: 1, dt: 1.0, horizon: 10.0, radius: 1.0, beta: 1.0, heading: rule, ..Params::default() };
+            let mut b = TrajectoryBatch::new();
+            predict(&map, &[walker(0.0, 0.0, 2.0 * PI - 0.3)], &params, &mut b).unwrap();
+            let s = b.sample(0, 0);
+            assert_eq!(s.len(), 10);
+            let last = DVec2::new((s[9][0] - s[8][0]) as f64, (s[9][1] - s[8][1]) as f64);
+            let ang = last.to_angle();
+            assert!((ang - 0.1).abs() < 0.01, "{rule:?}: {ang}");
+            // first step: lambda = exp(-0.16); circular mean lands between -0.3 and 0.1
+            let first = DVec2::new(s[0][0] as f64, s[0][1] as f64).to_angle();
+            assert!(first > -0.3 && first < 0.1, "{rule:?}: {first}");
+        }
+        // the circular mean rule's first heading, exactly
+        let lambda = (-0.16f64).exp();
+        let v = DVec2::from_angle(0.1) * lambda + DVec2::from_angle(-0.3) * (1.0 - lambda);
+        let params = Params { k: 1, dt: 1.0, horizon: 1.0, radius: 1.0, ..Params::default() };
+        let mut b = TrajectoryBatch::new();
+        predict(&map, &[walker(0.0, 0.0, 2.0 * PI - 0.3)], &params, &mut b).unwrap();
+        let s = b.sample(0, 0)[0];
+        assert!((s[1] as f64).atan2(s[0] as f64) - v.to_angle() < 1e-5);
+    }
+
+    #[test]
+    fn bad_parameters_and_states_are_refused() {
+        let map = CliffMap::demo();
+        let mut b = TrajectoryBatch::new();
+        let w = [walker(0.0, 0.0, 0.0)];
+        for (p, name) in [
+            (Params { k: 0, ..Params::default() }, "k"),
+            (Params { dt: 0.0, ..Params::default() }, "dt"),
+            (Params { horizon: f64::NAN, ..Params::default() }, "horizon"),
+            (Params { beta: -1.0, ..Params::default() }, "beta"),
+            (Params { radius: f64::INFINITY, ..Params::default() }, "radius"),
+        ] {
+            match predict(&map, &w, &p, &mut b) {
+                Err(PredictError::Param { name: n, .. }) => assert_eq!(n, name),
+                other => panic!("{name}: {other:?}"),
+            }
+        }
+        let bad = [walker(0.0, 0.0, 0.0), walker(f64::NAN, 0.0, 0.0)];
+        assert_eq!(predict(&map, &bad, &Params::default(), &mut b), Err(PredictError::State(1)));
+        let mut pos = vec![[0.0f32; 2]; 5];
+        let mut lens = vec![0u32; 20];
+        let e = predict_into(&map, &w, &Params::default(), BatchMut { positions: &mut pos, lens: &mut lens });
+        assert!(matches!(e, Err(PredictError::Shape { .. })));
+    }
+
+    #[test]
+    fn steps_round_like_the_reference() {
+        assert_eq!(steps_for(12.0, 0.4), 30);
+        assert_eq!(steps_for(11.0, 0.4), 27);
+        assert_eq!(steps_for(5.0, 0.4), 12);
+        assert_eq!(steps_for(50.0, 1.0), 50);
+        assert_eq!(steps_for(0.3, 0.4), 0);
+    }
+
+    #[test]
+    fn buffer_is_reused_without_reallocation() {
+        let map = CliffMap::demo();
+        let mut b = TrajectoryBatch::new();
+        let agents = [walker(-10.0, 0.0, 0.0); 3];
+        predict(&map, &agents, &Params::default(), &mut b).unwrap();
+        let ptr = b.positions().as_ptr();
+        predict(&map, &agents[..2], &Params { seed: 9, ..Params::default() }, &mut b).unwrap();
+        assert_eq!(b.positions().as_ptr(), ptr);
+        assert_eq!(b.shape(), (2, 20, 30));
+    }
+}
