@@ -18,7 +18,10 @@ pub const COLUMNS: usize = 11;
 /// Read a map from a CSV file.
 pub fn read_csv(path: &Path) -> Result<CliffMap, MapError> {
     let name = path.display().to_string();
-    let text = std::fs::read_to_string(path).map_err(|source| MapError::Io { file: name.clone(), source })?;
+    let text = std::fs::read_to_string(path).map_err(|source| MapError::Io {
+        file: name.clone(),
+        source,
+    })?;
     parse(&text, &name)
 }
 
@@ -28,7 +31,12 @@ pub fn read_csv_str(text: &str) -> Result<CliffMap, MapError> {
 }
 
 fn parse(text: &str, file: &str) -> Result<CliffMap, MapError> {
-    let perr = |line: usize, column: usize, message: String| MapError::Parse { file: file.to_string(), line, column, message };
+    let perr = |line: usize, column: usize, message: String| MapError::Parse {
+        file: file.to_string(),
+        line,
+        column,
+        message,
+    };
     let mut locations: Vec<Location> = Vec::new();
     let mut first_line: Vec<usize> = Vec::new();
     let mut by_pos: HashMap<(u64, u64), usize> = HashMap::new();
@@ -46,7 +54,9 @@ fn parse(text: &str, file: &str) -> Result<CliffMap, MapError> {
                 continue;
             }
             let f = field.trim();
-            let x: f64 = f.parse().map_err(|_| perr(line, ci + 1, format!("'{f}' is not a number")))?;
+            let x: f64 = f
+                .parse()
+                .map_err(|_| perr(line, ci + 1, format!("'{f}' is not a number")))?;
             if !x.is_finite() {
                 return Err(perr(line, ci + 1, format!("'{f}' is not finite")));
             }
@@ -54,7 +64,11 @@ fn parse(text: &str, file: &str) -> Result<CliffMap, MapError> {
             n = ci + 1;
         }
         if n != COLUMNS {
-            return Err(perr(line, 0, format!("expected {COLUMNS} columns, found {n}")));
+            return Err(perr(
+                line,
+                0,
+                format!("expected {COLUMNS} columns, found {n}"),
+            ));
         }
         if v[3] < 0.0 {
             return Err(perr(line, 4, format!("negative speed {}", v[3])));
@@ -66,9 +80,18 @@ fn parse(text: &str, file: &str) -> Result<CliffMap, MapError> {
             return Err(perr(line, 10, format!("negative motion ratio {}", v[9])));
         }
         if !(0.0..=1.0 + 1e-9).contains(&v[10]) {
-            return Err(perr(line, 11, format!("observation ratio {} is not in [0, 1]", v[10])));
+            return Err(perr(
+                line,
+                11,
+                format!("observation ratio {} is not in [0, 1]", v[10]),
+            ));
         }
-        let comp = Component { theta: v[2], rho: v[3], cov: [v[4], v[5], v[6], v[7]], weight: v[8] };
+        let comp = Component {
+            theta: v[2],
+            rho: v[3],
+            cov: [v[4], v[5], v[6], v[7]],
+            weight: v[8],
+        };
         let key = (v[0].to_bits(), v[1].to_bits());
         match by_pos.get(&key) {
             Some(&i) => locations[i].components.push(comp),
@@ -122,7 +145,10 @@ pub fn write_csv_string(map: &CliffMap) -> String {
 
 /// Write the map as CSV.
 pub fn write_csv(map: &CliffMap, path: &Path) -> Result<(), MapError> {
-    std::fs::write(path, write_csv_string(map)).map_err(|source| MapError::Io { file: path.display().to_string(), source })
+    std::fs::write(path, write_csv_string(map)).map_err(|source| MapError::Io {
+        file: path.display().to_string(),
+        source,
+    })
 }
 
 #[cfg(test)]
@@ -146,16 +172,30 @@ mod tests {
     #[test]
     fn errors_name_line_and_column() {
         let e = err("0,0,1,1,0.1,0,0,0.1,1,1,1\n0,1,1,1,0.1,0,0,0.1,1,1\n");
-        assert!(e.contains("<string>:2") && e.contains("expected 11 columns, found 10"), "{e}");
+        assert!(
+            e.contains("<string>:2") && e.contains("expected 11 columns, found 10"),
+            "{e}"
+        );
         let e = err("0,0,1,abc,0.1,0,0,0.1,1,1,1\n");
-        assert!(e.contains(":1: column 4") && e.contains("'abc' is not a number"), "{e}");
+        assert!(
+            e.contains(":1: column 4") && e.contains("'abc' is not a number"),
+            "{e}"
+        );
         let e = err("0,0,1,1,0.1,0,0,NaN,1,1,1\n");
         assert!(e.contains("column 8") && e.contains("not finite"), "{e}");
         let e = err("0,0,1,-1,0.1,0,0,0.1,1,1,1\n");
-        assert!(e.contains("column 4") && e.contains("negative speed"), "{e}");
+        assert!(
+            e.contains("column 4") && e.contains("negative speed"),
+            "{e}"
+        );
         let e = err("0,0,1,1,0.1,0,0,0.1,-0.5,1,1\n");
-        assert!(e.contains("column 9") && e.contains("negative weight"), "{e}");
-        let e = err("0,0,1,1,0.1,0,0,0.1,1,1,1\n1,0,1,1,0.1,0,0,0.1,1,1,1\n1.5,0.2,1,1,0.1,0,0,0.1,1,1,1\n");
+        assert!(
+            e.contains("column 9") && e.contains("negative weight"),
+            "{e}"
+        );
+        let e = err(
+            "0,0,1,1,0.1,0,0,0.1,1,1,1\n1,0,1,1,0.1,0,0,0.1,1,1,1\n1.5,0.2,1,1,0.1,0,0,0.1,1,1,1\n",
+        );
         assert!(e.contains(":3:") && e.contains("off the grid"), "{e}");
         let e = err("\n\n");
         assert!(e.contains("no map rows"), "{e}");
@@ -173,7 +213,11 @@ mod tests {
             let m = read_csv(&path).unwrap();
             let info = m.info();
             assert_eq!((info.locations, info.components), (locs, comps), "{f}");
-            assert!((info.grid_step - step).abs() < 1e-9, "{f}: {}", info.grid_step);
+            assert!(
+                (info.grid_step - step).abs() < 1e-9,
+                "{f}: {}",
+                info.grid_step
+            );
             // written back, the text is the same values
             let text = std::fs::read_to_string(&path).unwrap();
             let back = read_csv_str(&write_csv_string(&m)).unwrap();

@@ -16,7 +16,12 @@ use super::{CliffMap, Component, Location};
 pub const CORRIDOR_HALF_WIDTH: f64 = 3.0;
 
 fn component(theta: f64, rho: f64, weight: f64) -> Component {
-    Component { theta, rho, cov: [0.12, 0.01, 0.01, 0.04], weight }
+    Component {
+        theta,
+        rho,
+        cov: [0.12, 0.01, 0.01, 0.04],
+        weight,
+    }
 }
 
 pub(super) fn demo_map() -> CliffMap {
@@ -47,8 +52,17 @@ pub(super) fn demo_map() -> CliffMap {
             }
             // Busiest in the crossing and along the corridor centre lines.
             let d = y.abs().min(x.abs());
-            let observation_ratio = if in_ew && in_ns { 1.0 } else { 0.8 * (-d * d / 8.0).exp() + 0.1 };
-            locations.push(Location { position: DVec2::new(x, y), components, motion_ratio: 1.0, observation_ratio });
+            let observation_ratio = if in_ew && in_ns {
+                1.0
+            } else {
+                0.8 * (-d * d / 8.0).exp() + 0.1
+            };
+            locations.push(Location {
+                position: DVec2::new(x, y),
+                components,
+                motion_ratio: 1.0,
+                observation_ratio,
+            });
         }
     }
     CliffMap::with_grid_step(locations, Some(1.0)).expect("the demo scene is a valid map")

@@ -26,7 +26,10 @@ const ON_GRID_TOLERANCE: f64 = 1e-3;
 fn infer_step(values: impl Iterator<Item = f64>) -> Option<f64> {
     let mut v: Vec<f64> = values.collect();
     v.sort_by(|a, b| a.total_cmp(b));
-    v.windows(2).map(|w| w[1] - w[0]).filter(|d| *d > 1e-6).min_by(|a, b| a.total_cmp(b))
+    v.windows(2)
+        .map(|w| w[1] - w[0])
+        .filter(|d| *d > 1e-6)
+        .min_by(|a, b| a.total_cmp(b))
 }
 
 impl GridIndex {
@@ -48,6 +51,10 @@ impl GridIndex {
                     (Some(a), None) | (None, Some(a)) => a,
                     (None, None) => 1.0,
                 }
+                // Coordinates are printed with a few decimals: snap to micrometres.
+                .mul_add(1e6, 0.0)
+                .round()
+                    / 1e6
             }
         };
         if !(step.is_finite() && step > 0.0) {
@@ -58,8 +65,12 @@ impl GridIndex {
                 message: format!("grid step {step} is not positive"),
             });
         }
-        let lo = positions.iter().fold(DVec2::splat(f64::INFINITY), |a, p| a.min(*p));
-        let hi = positions.iter().fold(DVec2::splat(f64::NEG_INFINITY), |a, p| a.max(*p));
+        let lo = positions
+            .iter()
+            .fold(DVec2::splat(f64::INFINITY), |a, p| a.min(*p));
+        let hi = positions
+            .iter()
+            .fold(DVec2::splat(f64::NEG_INFINITY), |a, p| a.max(*p));
         let nx = ((hi.x - lo.x) / step).round() as usize + 1;
         let ny = ((hi.y - lo.y) / step).round() as usize + 1;
         if nx.saturating_mul(ny) > 64_000_000 {
@@ -80,10 +91,7 @@ impl GridIndex {
                     index: i,
                     x: p.x,
                     y: p.y,
-                    message: format!(
-                        "off the grid (step {step} m from ({}, {}))",
-                        lo.x, lo.y
-                    ),
+                    message: format!("off the grid (step {step} m from ({}, {}))", lo.x, lo.y),
                 });
             }
             let cell = &mut cells[cy as usize * nx + cx as usize];
@@ -97,7 +105,13 @@ impl GridIndex {
             }
             *cell = i as u32;
         }
-        Ok(Self { origin: lo, step, nx, ny, cells })
+        Ok(Self {
+            origin: lo,
+            step,
+            nx,
+            ny,
+            cells,
+        })
     }
 
     /// The grid step (m).
@@ -154,7 +168,9 @@ mod tests {
     #[test]
     fn infers_step_and_finds_candidates_only_nearby() {
         let pts: Vec<DVec2> = (0..10)
-            .flat_map(|i| (0..10).map(move |j| DVec2::new(-3.25 + 0.5 * i as f64, 1.75 + 0.5 * j as f64)))
+            .flat_map(|i| {
+                (0..10).map(move |j| DVec2::new(-3.25 + 0.5 * i as f64, 1.75 + 0.5 * j as f64))
+            })
             .collect();
         let g = GridIndex::new(&pts, None).unwrap();
         assert!((g.step() - 0.5).abs() < 1e-12);
@@ -179,7 +195,11 @@ mod tests {
 
     #[test]
     fn rejects_off_grid_and_duplicates() {
-        let e = GridIndex::new(&[DVec2::ZERO, DVec2::new(1.0, 0.0), DVec2::new(1.5, 0.3)], Some(1.0)).unwrap_err();
+        let e = GridIndex::new(
+            &[DVec2::ZERO, DVec2::new(1.0, 0.0), DVec2::new(1.5, 0.3)],
+            Some(1.0),
+        )
+        .unwrap_err();
         assert!(e.to_string().contains("off the grid"), "{e}");
         assert!(e.to_string().contains("location 2"), "{e}");
         let e = GridIndex::new(&[DVec2::ZERO, DVec2::ZERO], Some(1.0)).unwrap_err();

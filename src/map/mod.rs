@@ -28,8 +28,8 @@ use std::f64::consts::TAU;
 use std::path::Path;
 
 use glam::DVec2;
-use rand::{Rng, RngExt};
 use rand::distr::Distribution;
+use rand::{Rng, RngExt};
 use rand_distr::StandardNormal;
 use serde::{Deserialize, Serialize};
 
@@ -154,7 +154,11 @@ pub enum MapFormat {
 impl MapFormat {
     /// The format named by a path's extension (`.csv` or `.cliff`).
     pub fn from_path(path: &Path) -> Result<Self, MapError> {
-        match path.extension().and_then(|e| e.to_str()).map(|e| e.to_ascii_lowercase()) {
+        match path
+            .extension()
+            .and_then(|e| e.to_str())
+            .map(|e| e.to_ascii_lowercase())
+        {
             Some(e) if e == "csv" => Ok(Self::Csv),
             Some(e) if e == "cliff" || e == "snapshot" => Ok(Self::Snapshot),
             _ => Err(MapError::UnknownFormat(path.display().to_string())),
@@ -261,7 +265,11 @@ impl CliffMap {
                     report.clamped_covariances += 1;
                 }
                 cum += c.weight / total;
-                table.push(DirectionComponent { cum_weight: cum, mu: c.theta, sigma: cov[0].max(0.0).sqrt() });
+                table.push(DirectionComponent {
+                    cum_weight: cum,
+                    mu: c.theta,
+                    sigma: cov[0].max(0.0).sqrt(),
+                });
             }
             // Guard against rounding: the last cumulative weight is exactly one.
             if let Some(last) = table.last_mut() {
@@ -269,7 +277,15 @@ impl CliffMap {
             }
         }
         comp_start.push(table.len() as u32);
-        Ok(Self { locations, grid, positions, ratios, comp_start, table, report })
+        Ok(Self {
+            locations,
+            grid,
+            positions,
+            ratios,
+            comp_start,
+            table,
+            report,
+        })
     }
 
     /// Read a map from a file, by extension: `.csv` (published format) or `.cliff` (snapshot).
@@ -395,7 +411,9 @@ impl CliffMap {
     pub fn direction_at(&self, index: usize) -> DirectionSampler<'_> {
         let a = self.comp_start[index] as usize;
         let b = self.comp_start[index + 1] as usize;
-        DirectionSampler { table: &self.table[a..b] }
+        DirectionSampler {
+            table: &self.table[a..b],
+        }
     }
 }
 
@@ -422,7 +440,12 @@ impl Distribution<f64> for DirectionSampler<'_> {
 }
 
 fn validate_location(index: usize, loc: &Location) -> Result<(), MapError> {
-    let err = |message: String| MapError::Location { index, x: loc.position.x, y: loc.position.y, message };
+    let err = |message: String| MapError::Location {
+        index,
+        x: loc.position.x,
+        y: loc.position.y,
+        message,
+    };
     if !loc.position.is_finite() {
         return Err(err("position is not finite".into()));
     }
@@ -430,14 +453,22 @@ fn validate_location(index: usize, loc: &Location) -> Result<(), MapError> {
         return Err(err("no components".into()));
     }
     if !(loc.observation_ratio.is_finite() && (0.0..=1.0 + 1e-9).contains(&loc.observation_ratio)) {
-        return Err(err(format!("observation ratio {} is not in [0, 1]", loc.observation_ratio)));
+        return Err(err(format!(
+            "observation ratio {} is not in [0, 1]",
+            loc.observation_ratio
+        )));
     }
     if !(loc.motion_ratio.is_finite() && loc.motion_ratio >= 0.0) {
-        return Err(err(format!("motion ratio {} is negative or not finite", loc.motion_ratio)));
+        return Err(err(format!(
+            "motion ratio {} is negative or not finite",
+            loc.motion_ratio
+        )));
     }
     let mut total = 0.0;
     for (j, c) in loc.components.iter().enumerate() {
-        let vals = [c.theta, c.rho, c.cov[0], c.cov[1], c.cov[2], c.cov[3], c.weight];
+        let vals = [
+            c.theta, c.rho, c.cov[0], c.cov[1], c.cov[2], c.cov[3], c.weight,
+        ];
         if vals.iter().any(|v| !v.is_finite()) {
             return Err(err(format!("component {j} has a non-finite value")));
         }
@@ -445,7 +476,10 @@ fn validate_location(index: usize, loc: &Location) -> Result<(), MapError> {
             return Err(err(format!("component {j} has negative speed {}", c.rho)));
         }
         if c.weight < 0.0 {
-            return Err(err(format!("component {j} has negative weight {}", c.weight)));
+            return Err(err(format!(
+                "component {j} has negative weight {}",
+                c.weight
+            )));
         }
         total += c.weight;
     }
@@ -460,11 +494,21 @@ mod tests {
     use super::*;
 
     fn comp(theta: f64, w: f64) -> Component {
-        Component { theta, rho: 1.0, cov: [0.1, 0.0, 0.0, 0.1], weight: w }
+        Component {
+            theta,
+            rho: 1.0,
+            cov: [0.1, 0.0, 0.0, 0.1],
+            weight: w,
+        }
     }
 
     fn loc(x: f64, y: f64, ratio: f64, comps: Vec<Component>) -> Location {
-        Location { position: DVec2::new(x, y), components: comps, motion_ratio: 1.0, observation_ratio: ratio }
+        Location {
+            position: DVec2::new(x, y),
+            components: comps,
+            motion_ratio: 1.0,
+            observation_ratio: ratio,
+        }
     }
 
     #[test]
@@ -478,12 +522,21 @@ mod tests {
         assert!((c[0] - 0.15).abs() < 1e-12 && (c[1] - 0.15).abs() < 1e-12);
         let (c, fixed) = clamp_psd([-0.5, 0.0, 0.0, 0.2]);
         assert!(fixed);
-        assert!(c[0] == 0.0 && c[1] == 0.0 && (c[3] - 0.2).abs() < 1e-12, "{c:?}");
+        assert!(
+            c[0] == 0.0 && c[1] == 0.0 && (c[3] - 0.2).abs() < 1e-12,
+            "{c:?}"
+        );
     }
 
     #[test]
     fn renormalises_weights_and_reports() {
-        let m = CliffMap::new(vec![loc(0.0, 0.0, 1.0, vec![comp(0.0, 0.2), comp(1.0, 0.2)])]).unwrap();
+        let m = CliffMap::new(vec![loc(
+            0.0,
+            0.0,
+            1.0,
+            vec![comp(0.0, 0.2), comp(1.0, 0.2)],
+        )])
+        .unwrap();
         assert_eq!(m.report().renormalised_locations, 1);
         assert_eq!(m.report().clamped_covariances, 0);
         // raw values are kept
@@ -516,9 +569,19 @@ mod tests {
         assert!(e.contains("negative speed"), "{e}");
         let mut l = loc(0.0, 0.0, 1.0, vec![comp(0.0, 1.0)]);
         l.components[0].cov[1] = f64::NAN;
-        assert!(CliffMap::new(vec![l]).unwrap_err().to_string().contains("non-finite"));
+        assert!(
+            CliffMap::new(vec![l])
+                .unwrap_err()
+                .to_string()
+                .contains("non-finite")
+        );
         let l = loc(0.0, 0.0, 1.0, vec![comp(0.0, 0.0)]);
-        assert!(CliffMap::new(vec![l]).unwrap_err().to_string().contains("sum to zero"));
+        assert!(
+            CliffMap::new(vec![l])
+                .unwrap_err()
+                .to_string()
+                .contains("sum to zero")
+        );
     }
 
     #[test]
@@ -556,7 +619,9 @@ mod tests {
         let m = CliffMap::new(vec![loc(0.0, 0.0, 1.0, vec![a, b])]).unwrap();
         let mut rng = rand_xoshiro::Xoshiro256PlusPlus::seed_from_u64(7);
         let n = 40000;
-        let near_a = (0..n).filter(|_| (m.direction_at(0).sample(&mut rng) - 1.0).abs() < 0.1).count();
+        let near_a = (0..n)
+            .filter(|_| (m.direction_at(0).sample(&mut rng) - 1.0).abs() < 0.1)
+            .count();
         let share = near_a as f64 / n as f64;
         assert!((share - 0.75).abs() < 0.01, "{share}");
     }

@@ -24,7 +24,10 @@ struct Payload {
 
 /// Encode a map as snapshot bytes.
 pub fn encode(map: &CliffMap) -> Vec<u8> {
-    let payload = Payload { grid_step: map.grid().step(), locations: map.locations().to_vec() };
+    let payload = Payload {
+        grid_step: map.grid().step(),
+        locations: map.locations().to_vec(),
+    };
     let body = postcard::to_stdvec(&payload).expect("serialising plain data to memory cannot fail");
     let mut out = Vec::with_capacity(HEADER + body.len());
     out.extend_from_slice(&SNAPSHOT_MAGIC);
@@ -37,43 +40,65 @@ pub fn encode(map: &CliffMap) -> Vec<u8> {
 
 /// Decode snapshot bytes; `file` names the source in errors.
 pub fn decode(bytes: &[u8], file: &str) -> Result<CliffMap, MapError> {
-    let bad = |message: String| MapError::Snapshot { file: file.to_string(), message };
+    let bad = |message: String| MapError::Snapshot {
+        file: file.to_string(),
+        message,
+    };
     if bytes.len() < HEADER {
-        return Err(bad(format!("{} bytes is shorter than the {HEADER}-byte header", bytes.len())));
+        return Err(bad(format!(
+            "{} bytes is shorter than the {HEADER}-byte header",
+            bytes.len()
+        )));
     }
     if bytes[..8] != SNAPSHOT_MAGIC {
         return Err(bad("wrong magic number (not a cliff snapshot)".into()));
     }
     let version = u32::from_le_bytes(bytes[8..12].try_into().unwrap());
     if version != SNAPSHOT_VERSION {
-        return Err(bad(format!("format version {version}, this build reads version {SNAPSHOT_VERSION}")));
+        return Err(bad(format!(
+            "format version {version}, this build reads version {SNAPSHOT_VERSION}"
+        )));
     }
     let len = u64::from_le_bytes(bytes[12..20].try_into().unwrap());
     let crc = u32::from_le_bytes(bytes[20..24].try_into().unwrap());
     let body = &bytes[HEADER..];
     if body.len() as u64 != len {
-        return Err(bad(format!("payload is {} bytes, header says {len} (truncated or padded)", body.len())));
+        return Err(bad(format!(
+            "payload is {} bytes, header says {len} (truncated or padded)",
+            body.len()
+        )));
     }
     if crc32fast::hash(body) != crc {
         return Err(bad("checksum mismatch (corrupted)".into()));
     }
-    let (payload, rest): (Payload, &[u8]) = postcard::take_from_bytes(body).map_err(|e| bad(format!("payload: {e}")))?;
+    let (payload, rest): (Payload, &[u8]) =
+        postcard::take_from_bytes(body).map_err(|e| bad(format!("payload: {e}")))?;
     if !rest.is_empty() {
-        return Err(bad(format!("{} trailing bytes after the payload", rest.len())));
+        return Err(bad(format!(
+            "{} trailing bytes after the payload",
+            rest.len()
+        )));
     }
-    CliffMap::with_grid_step(payload.locations, Some(payload.grid_step)).map_err(|e| bad(e.to_string()))
+    CliffMap::with_grid_step(payload.locations, Some(payload.grid_step))
+        .map_err(|e| bad(e.to_string()))
 }
 
 /// Read a snapshot file.
 pub fn read_snapshot(path: &Path) -> Result<CliffMap, MapError> {
     let name = path.display().to_string();
-    let bytes = std::fs::read(path).map_err(|source| MapError::Io { file: name.clone(), source })?;
+    let bytes = std::fs::read(path).map_err(|source| MapError::Io {
+        file: name.clone(),
+        source,
+    })?;
     decode(&bytes, &name)
 }
 
 /// Write a snapshot file.
 pub fn write_snapshot(map: &CliffMap, path: &Path) -> Result<(), MapError> {
-    std::fs::write(path, encode(map)).map_err(|source| MapError::Io { file: path.display().to_string(), source })
+    std::fs::write(path, encode(map)).map_err(|source| MapError::Io {
+        file: path.display().to_string(),
+        source,
+    })
 }
 
 #[cfg(test)]
@@ -91,19 +116,31 @@ mod tests {
     #[test]
     fn refuses_damaged_files_whole() {
         let bytes = encode(&CliffMap::demo());
-        let e = decode(&bytes[..bytes.len() - 3], "f.cliff").unwrap_err().to_string();
+        let e = decode(&bytes[..bytes.len() - 3], "f.cliff")
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("f.cliff") && e.contains("truncated"), "{e}");
         let e = decode(&bytes[..10], "f").unwrap_err().to_string();
         assert!(e.contains("header"), "{e}");
         let mut b = bytes.clone();
         let mid = b.len() / 2;
         b[mid] ^= 0x40;
-        assert!(decode(&b, "f").unwrap_err().to_string().contains("checksum"));
+        assert!(
+            decode(&b, "f")
+                .unwrap_err()
+                .to_string()
+                .contains("checksum")
+        );
         let mut b = bytes.clone();
         b[0] = b'X';
         assert!(decode(&b, "f").unwrap_err().to_string().contains("magic"));
         let mut b = bytes.clone();
         b[8] = 9;
-        assert!(decode(&b, "f").unwrap_err().to_string().contains("version 9"));
+        assert!(
+            decode(&b, "f")
+                .unwrap_err()
+                .to_string()
+                .contains("version 9")
+        );
     }
 }

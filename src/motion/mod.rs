@@ -86,7 +86,12 @@ fn weights(n: usize, sigma: f64, out: &mut [f64]) {
 }
 
 /// Weighted speed and circular mean heading of rows given oldest first.
-fn weighted(speeds: impl Iterator<Item = f64>, angles: impl Iterator<Item = f64>, n: usize, sigma: f64) -> Velocity {
+fn weighted(
+    speeds: impl Iterator<Item = f64>,
+    angles: impl Iterator<Item = f64>,
+    n: usize,
+    sigma: f64,
+) -> Velocity {
     const STACK: usize = 64;
     let mut buf = [0.0f64; STACK];
     let mut heap;
@@ -103,33 +108,56 @@ fn weighted(speeds: impl Iterator<Item = f64>, angles: impl Iterator<Item = f64>
         s += w * a.sin();
         c += w * a.cos();
     }
-    Velocity { speed, heading: wrap_2pi(s.atan2(c)) }
+    Velocity {
+        speed,
+        heading: wrap_2pi(s.atan2(c)),
+    }
 }
 
 /// Observed velocity from speed and heading columns (oldest row first): weighted speed
 /// and weighted circular mean heading. The reference rule.
-pub fn velocity_from_speed_angle(speeds: &[f64], angles: &[f64], sigma: f64) -> Result<Velocity, HistoryError> {
+pub fn velocity_from_speed_angle(
+    speeds: &[f64],
+    angles: &[f64],
+    sigma: f64,
+) -> Result<Velocity, HistoryError> {
     if speeds.len() != angles.len() {
         return Err(HistoryError::LengthMismatch);
     }
     if speeds.is_empty() {
         return Err(HistoryError::TooShort { got: 0, need: 1 });
     }
-    if let Some(i) = speeds.iter().zip(angles).position(|(s, a)| !s.is_finite() || !a.is_finite()) {
+    if let Some(i) = speeds
+        .iter()
+        .zip(angles)
+        .position(|(s, a)| !s.is_finite() || !a.is_finite())
+    {
         return Err(HistoryError::NonFinite(i));
     }
-    Ok(weighted(speeds.iter().copied(), angles.iter().copied(), speeds.len(), sigma))
+    Ok(weighted(
+        speeds.iter().copied(),
+        angles.iter().copied(),
+        speeds.len(),
+        sigma,
+    ))
 }
 
 /// Observed velocity from timestamped positions (oldest first): the velocities of the
 /// `n - 1` finite differences, weighted as in the reference rule (speed by weighted sum,
 /// heading by weighted circular mean).
-pub fn velocity_from_positions(times: &[f64], positions: &[DVec2], sigma: f64) -> Result<Velocity, HistoryError> {
+pub fn velocity_from_positions(
+    times: &[f64],
+    positions: &[DVec2],
+    sigma: f64,
+) -> Result<Velocity, HistoryError> {
     if times.len() != positions.len() {
         return Err(HistoryError::LengthMismatch);
     }
     if times.len() < 2 {
-        return Err(HistoryError::TooShort { got: times.len(), need: 2 });
+        return Err(HistoryError::TooShort {
+            got: times.len(),
+            need: 2,
+        });
     }
     for i in 0..times.len() {
         if !times[i].is_finite() || !positions[i].is_finite() {
@@ -141,7 +169,12 @@ pub fn velocity_from_positions(times: &[f64], positions: &[DVec2], sigma: f64) -
     }
     let vel = |i: usize| (positions[i + 1] - positions[i]) / (times[i + 1] - times[i]);
     let n = times.len() - 1;
-    Ok(weighted((0..n).map(|i| vel(i).length()), (0..n).map(|i| vel(i).to_angle()), n, sigma))
+    Ok(weighted(
+        (0..n).map(|i| vel(i).length()),
+        (0..n).map(|i| vel(i).to_angle()),
+        n,
+        sigma,
+    ))
 }
 
 #[cfg(test)]
@@ -163,7 +196,8 @@ mod tests {
     fn heading_mean_wraps_around_zero() {
         let v = velocity_from_speed_angle(&[1.0, 1.0], &[TAU - 0.1, 0.1], 1e9).unwrap();
         assert!(v.heading < 1e-9 || v.heading > TAU - 1e-9, "{}", v.heading);
-        let v = velocity_from_speed_angle(&[1.0, 1.0, 1.0], &[-PI + 0.05, PI - 0.05, PI], 1.5).unwrap();
+        let v =
+            velocity_from_speed_angle(&[1.0, 1.0, 1.0], &[-PI + 0.05, PI - 0.05, PI], 1.5).unwrap();
         assert!((v.heading - PI).abs() < 0.05, "{}", v.heading);
         assert!((0.0..TAU).contains(&v.heading));
     }
@@ -174,14 +208,19 @@ mod tests {
         let p: Vec<DVec2> = t.iter().map(|&t| DVec2::new(t * t * 0.5, -t)).collect();
         let v = velocity_from_positions(&t, &p, 1.5).unwrap();
         let speeds: Vec<f64> = (0..8).map(|i| ((p[i + 1] - p[i]) / 0.4).length()).collect();
-        let angles: Vec<f64> = (0..8).map(|i| ((p[i + 1] - p[i]) / 0.4).to_angle()).collect();
+        let angles: Vec<f64> = (0..8)
+            .map(|i| ((p[i + 1] - p[i]) / 0.4).to_angle())
+            .collect();
         let w = velocity_from_speed_angle(&speeds, &angles, 1.5).unwrap();
         assert!((v.speed - w.speed).abs() < 1e-12 && (v.heading - w.heading).abs() < 1e-12);
     }
 
     #[test]
     fn bad_histories_are_refused() {
-        assert_eq!(velocity_from_positions(&[0.0], &[DVec2::ZERO], 1.5), Err(HistoryError::TooShort { got: 1, need: 2 }));
+        assert_eq!(
+            velocity_from_positions(&[0.0], &[DVec2::ZERO], 1.5),
+            Err(HistoryError::TooShort { got: 1, need: 2 })
+        );
         assert_eq!(
             velocity_from_positions(&[0.0, 0.0], &[DVec2::ZERO, DVec2::ONE], 1.5),
             Err(HistoryError::NotIncreasing(1))
@@ -190,6 +229,9 @@ mod tests {
             velocity_from_positions(&[0.0, 1.0], &[DVec2::ZERO, DVec2::NAN], 1.5),
             Err(HistoryError::NonFinite(1))
         );
-        assert_eq!(velocity_from_speed_angle(&[1.0], &[], 1.5), Err(HistoryError::LengthMismatch));
+        assert_eq!(
+            velocity_from_speed_angle(&[1.0], &[], 1.5),
+            Err(HistoryError::LengthMismatch)
+        );
     }
 }

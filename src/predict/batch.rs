@@ -80,6 +80,9 @@ impl TrajectoryBatch {
 
     /// Mutable views of the buffers, for [`predict_into`](super::predict_into).
     pub fn as_mut(&mut self) -> BatchMut<'_> {
-        BatchMut { positions: &mut self.positions, lens: &mut self.lens }
+        BatchMut {
+            positions: &mut self.positions,
+            lens: &mut self.lens,
+        }
     }
 }

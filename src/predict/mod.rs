@@ -93,7 +93,9 @@ impl FromStr for HeadingRule {
         match s.trim().to_ascii_lowercase().as_str() {
             "circular-mean" | "reference" => Ok(HeadingRule::CircularMean),
             "paper" => Ok(HeadingRule::Paper),
-            other => Err(format!("unknown heading rule '{other}' (expected circular-mean or paper)")),
+            other => Err(format!(
+                "unknown heading rule '{other}' (expected circular-mean or paper)"
+            )),
         }
     }
 }
@@ -141,7 +143,11 @@ impl Default for Params {
 pub fn steps_for(horizon: f64, dt: f64) -> usize {
     let s = horizon / dt;
     let r = s.round();
-    if (s - r).abs() < 1e-9 { r as usize } else { s.floor() as usize }
+    if (s - r).abs() < 1e-9 {
+        r as usize
+    } else {
+        s.floor() as usize
+    }
 }
 
 impl Params {
@@ -160,16 +166,31 @@ impl Params {
             return bad("dt", format!("{} is not a positive number", self.dt));
         }
         if !(self.horizon.is_finite() && self.horizon >= 0.0) {
-            return bad("horizon", format!("{} is not a non-negative number", self.horizon));
+            return bad(
+                "horizon",
+                format!("{} is not a non-negative number", self.horizon),
+            );
         }
         if self.horizon / self.dt > 1e7 {
-            return bad("horizon", format!("{} s at dt {} is more than 10^7 steps", self.horizon, self.dt));
+            return bad(
+                "horizon",
+                format!(
+                    "{} s at dt {} is more than 10^7 steps",
+                    self.horizon, self.dt
+                ),
+            );
         }
         if !(self.beta.is_finite() && self.beta >= 0.0) {
-            return bad("beta", format!("{} is not a non-negative number", self.beta));
+            return bad(
+                "beta",
+                format!("{} is not a non-negative number", self.beta),
+            );
         }
         if !(self.radius.is_finite() && self.radius > 0.0) {
-            return bad("radius", format!("{} is not a positive number", self.radius));
+            return bad(
+                "radius",
+                format!("{} is not a positive number", self.radius),
+            );
         }
         Ok(())
     }
@@ -190,7 +211,9 @@ pub enum PredictError {
     #[error("agent {0}: state has a non-finite value or negative speed")]
     State(usize),
     /// The output buffers do not have the shape the call needs.
-    #[error("output buffer holds {got} positions and {got_lens} lengths, the call needs {need} and {need_lens}")]
+    #[error(
+        "output buffer holds {got} positions and {got_lens} lengths, the call needs {need} and {need_lens}"
+    )]
     Shape {
         /// Positions in the buffer.
         got: usize,
@@ -205,7 +228,12 @@ pub enum PredictError {
 
 /// Predict `params.k` samples for every agent into `out`, resizing it as needed
 /// (no allocation once it has held a batch at least this large).
-pub fn predict(map: &CliffMap, agents: &[State], params: &Params, out: &mut TrajectoryBatch) -> Result<(), PredictError> {
+pub fn predict(
+    map: &CliffMap,
+    agents: &[State],
+    params: &Params,
+    out: &mut TrajectoryBatch,
+) -> Result<(), PredictError> {
     params.validate()?;
     out.reshape(agents.len(), params.k, params.steps());
     predict_into(map, agents, params, out.as_mut())
@@ -215,15 +243,27 @@ pub fn predict(map: &CliffMap, agents: &[State], params: &Params, out: &mut Traj
 /// `out.positions` holds `agents x k x steps` points, sample-major, and `out.lens`
 /// the valid length of each of the `agents x k` samples. Points past a sample's valid
 /// length are set to NaN.
-pub fn predict_into(map: &CliffMap, agents: &[State], params: &Params, out: BatchMut<'_>) -> Result<(), PredictError> {
+pub fn predict_into(
+    map: &CliffMap,
+    agents: &[State],
+    params: &Params,
+    out: BatchMut<'_>,
+) -> Result<(), PredictError> {
     params.validate()?;
     let steps = params.steps();
     let samples = agents.len() * params.k;
     let need = samples * steps;
     if out.positions.len() != need || out.lens.len() != samples {
-        return Err(PredictError::Shape { got: out.positions.len(), got_lens: out.lens.len(), need, need_lens: samples });
+        return Err(PredictError::Shape {
+            got: out.positions.len(),
+            got_lens: out.lens.len(),
+            need,
+            need_lens: samples,
+        });
     }
-    if let Some(i) = agents.iter().position(|s| !(s.position.is_finite() && s.speed.is_finite() && s.heading.is_finite() && s.speed >= 0.0)) {
+    if let Some(i) = agents.iter().position(|s| {
+        !(s.position.is_finite() && s.speed.is_finite() && s.heading.is_finite() && s.speed >= 0.0)
+    }) {
         return Err(PredictError::State(i));
     }
     let mut rng = Xoshiro256PlusPlus::seed_from_u64(params.seed);
@@ -258,7 +298,13 @@ fn roll_cvm(state: &State, dt: f64, track: &mut [Point]) -> usize {
 
 /// One CLiFF-LHMP sample; returns how many steps it made before leaving the map.
 #[inline]
-fn roll_cliff(map: &CliffMap, state: &State, params: &Params, rng: &mut Xoshiro256PlusPlus, track: &mut [Point]) -> usize {
+fn roll_cliff(
+    map: &CliffMap,
+    state: &State,
+    params: &Params,
+    rng: &mut Xoshiro256PlusPlus,
+    track: &mut [Point],
+) -> usize {
     let dist = state.speed * params.dt;
     let mut p = state.position;
     let mut theta = wrap_2pi(state.heading);
@@ -302,13 +348,24 @@ mod tests {
     use crate::map::{Component, Location};
 
     fn walker(x: f64, y: f64, heading: f64) -> State {
-        State { position: DVec2::new(x, y), speed: 1.0, heading, time: 0.0 }
+        State {
+            position: DVec2::new(x, y),
+            speed: 1.0,
+            heading,
+            time: 0.0,
+        }
     }
 
     #[test]
     fn cvm_moves_straight_and_never_stops() {
         let map = CliffMap::demo();
-        let params = Params { method: Method::Cvm, k: 2, dt: 0.5, horizon: 100.0, ..Params::default() };
+        let params = Params {
+            method: Method::Cvm,
+            k: 2,
+            dt: 0.5,
+            horizon: 100.0,
+            ..Params::default()
+        };
         let mut b = TrajectoryBatch::new();
         predict(&map, &[walker(0.0, 0.0, PI / 2.0)], &params, &mut b).unwrap();
         assert_eq!(b.shape(), (1, 2, 200));
@@ -321,12 +378,25 @@ mod tests {
     fn same_seed_same_bytes_other_seed_other_bytes() {
         let map = CliffMap::demo();
         let agents = [walker(-10.0, 0.0, 0.0), walker(0.0, -8.0, PI / 2.0)];
-        let p = Params { seed: 42, ..Params::default() };
-        let (mut a, mut b, mut c) = (TrajectoryBatch::new(), TrajectoryBatch::new(), TrajectoryBatch::new());
+        let p = Params {
+            seed: 42,
+            ..Params::default()
+        };
+        let (mut a, mut b, mut c) = (
+            TrajectoryBatch::new(),
+            TrajectoryBatch::new(),
+            TrajectoryBatch::new(),
+        );
         predict(&map, &agents, &p, &mut a).unwrap();
         predict(&map, &agents, &p, &mut b).unwrap();
         predict(&map, &agents, &Params { seed: 43, ..p }, &mut c).unwrap();
-        let bits = |t: &TrajectoryBatch| t.positions().iter().flatten().map(|v| v.to_bits()).collect::<Vec<_>>();
+        let bits = |t: &TrajectoryBatch| {
+            t.positions()
+                .iter()
+                .flatten()
+                .map(|v| v.to_bits())
+                .collect::<Vec<_>>()
+        };
         assert_eq!(bits(&a), bits(&b));
         assert_eq!(a.lens(), b.lens());
         assert_ne!(bits(&a), bits(&c));
@@ -337,14 +407,31 @@ mod tests {
         // a single location at the origin; walking east from it at 1 m/s, 1 s steps
         let map = CliffMap::new(vec![Location {
             position: DVec2::ZERO,
-            components: vec![Component { theta: 0.0, rho: 1.0, cov: [1e-8, 0.0, 0.0, 0.01], weight: 1.0 }],
+            components: vec![Component {
+                theta: 0.0,
+                rho: 1.0,
+                cov: [1e-8, 0.0, 0.0, 0.01],
+                weight: 1.0,
+            }],
             motion_ratio: 1.0,
             observation_ratio: 1.0,
         }])
         .unwrap();
-        let params = Params { k: 3, dt: 1.0, horizon: 5.0, radius: 1.5, ..Params::default() };
+        let params = Params {
+            k: 3,
+            dt: 1.0,
+            horizon: 5.0,
+            radius: 1.5,
+            ..Params::default()
+        };
         let mut b = TrajectoryBatch::new();
-        predict(&map, &[walker(0.0, 0.0, 0.0), walker(5.0, 5.0, 0.0)], &params, &mut b).unwrap();
+        predict(
+            &map,
+            &[walker(0.0, 0.0, 0.0), walker(5.0, 5.0, 0.0)],
+            &params,
+            &mut b,
+        )
+        .unwrap();
         // at x=0 and x=1 the location is near; from x=2 on it is not: 2 steps
         for s in 0..3 {
             assert_eq!(b.len(0, s), 2);
@@ -364,7 +451,12 @@ mod tests {
             for iy in -10..=10 {
                 locs.push(Location {
                     position: DVec2::new(ix as f64, iy as f64),
-                    components: vec![Component { theta: 0.1, rho: 1.0, cov: [1e-10, 0.0, 0.0, 0.01], weight: 1.0 }],
+                    components: vec![Component {
+                        theta: 0.1,
+                        rho: 1.0,
+                        cov: [1e-10, 0.0, 0.0, 0.01],
+                        weight: 1.0,
+                    }],
                     motion_ratio: 1.0,
                     observation_ratio: 1.0,
                 });
@@ -372,7 +464,15 @@ mod tests {
         }
         let map = CliffMap::new(locs).unwrap();
         for rule in [HeadingRule::CircularMean, HeadingRule::Paper] {
-            let params = Params { k: 1, dt: 1.0, horizon: 10.0, radius: 1.0, beta: 1.0, heading: rule, ..Params::default() };
+            let params = Params {
+                k: 1,
+                dt: 1.0,
+                horizon: 10.0,
+                radius: 1.0,
+                beta: 1.0,
+                heading: rule,
+                ..Params::default()
+            };
             let mut b = TrajectoryBatch::new();
             predict(&map, &[walker(0.0, 0.0, 2.0 * PI - 0.3)], &params, &mut b).unwrap();
             let s = b.sample(0, 0);
@@ -387,7 +487,13 @@ mod tests {
         // the circular mean rule's first heading, exactly
         let lambda = (-0.16f64).exp();
         let v = DVec2::from_angle(0.1) * lambda + DVec2::from_angle(-0.3) * (1.0 - lambda);
-        let params = Params { k: 1, dt: 1.0, horizon: 1.0, radius: 1.0, ..Params::default() };
+        let params = Params {
+            k: 1,
+            dt: 1.0,
+            horizon: 1.0,
+            radius: 1.0,
+            ..Params::default()
+        };
         let mut b = TrajectoryBatch::new();
         predict(&map, &[walker(0.0, 0.0, 2.0 * PI - 0.3)], &params, &mut b).unwrap();
         let s = b.sample(0, 0)[0];
@@ -400,11 +506,41 @@ mod tests {
         let mut b = TrajectoryBatch::new();
         let w = [walker(0.0, 0.0, 0.0)];
         for (p, name) in [
-            (Params { k: 0, ..Params::default() }, "k"),
-            (Params { dt: 0.0, ..Params::default() }, "dt"),
-            (Params { horizon: f64::NAN, ..Params::default() }, "horizon"),
-            (Params { beta: -1.0, ..Params::default() }, "beta"),
-            (Params { radius: f64::INFINITY, ..Params::default() }, "radius"),
+            (
+                Params {
+                    k: 0,
+                    ..Params::default()
+                },
+                "k",
+            ),
+            (
+                Params {
+                    dt: 0.0,
+                    ..Params::default()
+                },
+                "dt",
+            ),
+            (
+                Params {
+                    horizon: f64::NAN,
+                    ..Params::default()
+                },
+                "horizon",
+            ),
+            (
+                Params {
+                    beta: -1.0,
+                    ..Params::default()
+                },
+                "beta",
+            ),
+            (
+                Params {
+                    radius: f64::INFINITY,
+                    ..Params::default()
+                },
+                "radius",
+            ),
         ] {
             match predict(&map, &w, &p, &mut b) {
                 Err(PredictError::Param { name: n, .. }) => assert_eq!(n, name),
@@ -412,10 +548,21 @@ mod tests {
             }
         }
         let bad = [walker(0.0, 0.0, 0.0), walker(f64::NAN, 0.0, 0.0)];
-        assert_eq!(predict(&map, &bad, &Params::default(), &mut b), Err(PredictError::State(1)));
+        assert_eq!(
+            predict(&map, &bad, &Params::default(), &mut b),
+            Err(PredictError::State(1))
+        );
         let mut pos = vec![[0.0f32; 2]; 5];
         let mut lens = vec![0u32; 20];
-        let e = predict_into(&map, &w, &Params::default(), BatchMut { positions: &mut pos, lens: &mut lens });
+        let e = predict_into(
+            &map,
+            &w,
+            &Params::default(),
+            BatchMut {
+                positions: &mut pos,
+                lens: &mut lens,
+            },
+        );
         assert!(matches!(e, Err(PredictError::Shape { .. })));
     }
 
@@ -435,7 +582,16 @@ mod tests {
         let agents = [walker(-10.0, 0.0, 0.0); 3];
         predict(&map, &agents, &Params::default(), &mut b).unwrap();
         let ptr = b.positions().as_ptr();
-        predict(&map, &agents[..2], &Params { seed: 9, ..Params::default() }, &mut b).unwrap();
+        predict(
+            &map,
+            &agents[..2],
+            &Params {
+                seed: 9,
+                ..Params::default()
+            },
+            &mut b,
+        )
+        .unwrap();
         assert_eq!(b.positions().as_ptr(), ptr);
         assert_eq!(b.shape(), (2, 20, 30));
     }
