@@ -16,6 +16,7 @@
 //! ```
 #![warn(missing_docs)]
 
+pub mod eval;
 pub mod map;
 pub mod motion;
 pub mod predict;

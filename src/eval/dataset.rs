@@ -1,0 +1,258 @@
+//! Readers for the THÖR and ATC trajectory files.
+//!
+//! Both are CSV without a header, one row per tracked position:
+//! `time, person_id, x, y, speed, motion_angle` (s, -, m, m, m/s, rad in (-pi, pi]).
+//! THÖR runs at 2.5 Hz with times from the start of the recording; ATC at 1 Hz with
+//! unix times. Rows are grouped into [`Track`]s by person, in order of first appearance.
+//!
+//! ```
+//! use cliff::eval::dataset::{parse_tracks, Format};
+//! let text = "0.0,7,1.0,2.0,1.2,0.5\n0.4,7,1.4,2.2,1.1,0.4\n";
+//! let tracks = parse_tracks(text, "inline.csv", Format::Thor).unwrap();
+//! assert_eq!(tracks[0].id, 7);
+//! assert_eq!(tracks[0].rows.len(), 2);
+//! ```
+
+use std::collections::HashMap;
+use std::fmt;
+use std::path::Path;
+use std::str::FromStr;
+
+use glam::DVec2;
+
+/// Trajectory file formats.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Format {
+    /// THÖR: `time, person_id, x, y, speed, motion_angle`, 2.5 Hz.
+    Thor,
+    /// ATC: `unix_time, person_id, x, y, speed, motion_angle`, 1 Hz.
+    Atc,
+}
+
+impl FromStr for Format {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s.trim().to_ascii_lowercase().as_str() {
+            "thor" => Ok(Format::Thor),
+            "atc" => Ok(Format::Atc),
+            other => Err(format!(
+                "unknown track format '{other}' (expected thor or atc)"
+            )),
+        }
+    }
+}
+
+impl fmt::Display for Format {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            Format::Thor => "thor",
+            Format::Atc => "atc",
+        })
+    }
+}
+
+/// One tracked position.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Row {
+    /// Time (s).
+    pub t: f64,
+    /// Position (m).
+    pub position: DVec2,
+    /// Speed (m/s); 0 with angle 0 means standing still.
+    pub speed: f64,
+    /// Motion angle (rad, as in the file: (-pi, pi]).
+    pub angle: f64,
+}
+
+/// All rows of one person, in time order.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Track {
+    /// Person id.
+    pub id: u64,
+    /// Rows, strictly increasing in time.
+    pub rows: Vec<Row>,
+}
+
+/// A problem in a trajectory file, with its place.
+#[derive(Debug, thiserror::Error)]
+pub enum DatasetError {
+    /// A bad value; line and column are 1-based (column 0: the whole line).
+    #[error("{file}:{line}: column {column}: {message}")]
+    Parse {
+        /// The file.
+        file: String,
+        /// Line.
+        line: usize,
+        /// Column.
+        column: usize,
+        /// What is wrong.
+        message: String,
+    },
+    /// Reading failed.
+    #[error("{file}: {source}")]
+    Io {
+        /// The file.
+        file: String,
+        /// The underlying error.
+        source: std::io::Error,
+    },
+}
+
+const COLUMNS: usize = 6;
+
+/// Read the tracks of one file.
+pub fn read_tracks(path: &Path, format: Format) -> Result<Vec<Track>, DatasetError> {
+    let file = path.display().to_string();
+    let text = std::fs::read_to_string(path).map_err(|source| DatasetError::Io {
+        file: file.clone(),
+        source,
+    })?;
+    parse_tracks(&text, &file, format)
+}
+
+/// Read and concatenate the tracks of several files (a person id seen in two files
+/// becomes two tracks).
+pub fn read_many(paths: &[impl AsRef<Path>], format: Format) -> Result<Vec<Track>, DatasetError> {
+    let mut all = Vec::new();
+    for p in paths {
+        all.extend(read_tracks(p.as_ref(), format)?);
+    }
+    Ok(all)
+}
+
+/// Parse trajectory text; `file` names the source in errors.
+pub fn parse_tracks(text: &str, file: &str, _format: Format) -> Result<Vec<Track>, DatasetError> {
+    let err = |line: usize, column: usize, message: String| DatasetError::Parse {
+        file: file.to_string(),
+        line,
+        column,
+        message,
+    };
+    let mut tracks: Vec<Track> = Vec::new();
+    let mut index: HashMap<u64, usize> = HashMap::new();
+    for (ln, raw) in text.lines().enumerate() {
+        let line = ln + 1;
+        let raw = raw.trim();
+        if raw.is_empty() {
+            continue;
+        }
+        let fields: Vec<&str> = raw.split(',').map(str::trim).collect();
+        if fields.len() != COLUMNS {
+            return Err(err(
+                line,
+                0,
+                format!(
+                    "expected {COLUMNS} columns (time, person_id, x, y, speed, motion_angle), found {}",
+                    fields.len()
+                ),
+            ));
+        }
+        let num = |c: usize| -> Result<f64, DatasetError> {
+            let v: f64 = fields[c]
+                .parse()
+                .map_err(|_| err(line, c + 1, format!("'{}' is not a number", fields[c])))?;
+            if v.is_finite() {
+                Ok(v)
+            } else {
+                Err(err(line, c + 1, format!("'{}' is not finite", fields[c])))
+            }
+        };
+        let t = num(0)?;
+        let id: u64 = match fields[1].parse::<u64>() {
+            Ok(id) => id,
+            Err(_) => {
+                let f = num(1)?;
+                if f >= 0.0 && f.fract() == 0.0 && f < 1.8e19 {
+                    f as u64
+                } else {
+                    return Err(err(
+                        line,
+                        2,
+                        format!(
+                            "person id '{}' is not a non-negative whole number",
+                            fields[1]
+                        ),
+                    ));
+                }
+            }
+        };
+        let row = Row {
+            t,
+            position: DVec2::new(num(2)?, num(3)?),
+            speed: num(4)?,
+            angle: num(5)?,
+        };
+        if row.speed < 0.0 {
+            return Err(err(line, 5, format!("negative speed {}", row.speed)));
+        }
+        let i = *index.entry(id).or_insert_with(|| {
+            tracks.push(Track {
+                id,
+                rows: Vec::new(),
+            });
+            tracks.len() - 1
+        });
+        if let Some(prev) = tracks[i].rows.last()
+            && row.t <= prev.t
+        {
+            return Err(err(
+                line,
+                1,
+                format!(
+                    "time {} of person {id} does not increase (previous row {})",
+                    row.t, prev.t
+                ),
+            ));
+        }
+        tracks[i].rows.push(row);
+    }
+    Ok(tracks)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn e(text: &str) -> String {
+        parse_tracks(text, "t.csv", Format::Thor)
+            .unwrap_err()
+            .to_string()
+    }
+
+    #[test]
+    fn groups_by_person_in_order() {
+        let t = parse_tracks("0,2,0,0,1,0\n0,1,5,5,1,0\n1,2,1,0,1,0\n", "t", Format::Atc).unwrap();
+        assert_eq!(
+            t.iter().map(|t| (t.id, t.rows.len())).collect::<Vec<_>>(),
+            vec![(2, 2), (1, 1)]
+        );
+    }
+
+    #[test]
+    fn errors_name_file_line_column() {
+        assert!(e("0,1,0,0,1\n").contains("t.csv:1: column 0: expected 6 columns"));
+        assert!(e("0,1,0,0,1,0\n1,1,x,0,1,0\n").contains("t.csv:2: column 3: 'x' is not a number"));
+        assert!(e("0,1,0,inf,1,0\n").contains("column 4: 'inf' is not finite"));
+        assert!(e("0,1,0,0,-1,0\n").contains("column 5: negative speed"));
+        assert!(e("0,-3,0,0,1,0\n").contains("column 2: person id"));
+        assert!(
+            e("1,1,0,0,1,0\n1,1,0,0,1,0\n")
+                .contains("t.csv:2: column 1: time 1 of person 1 does not increase")
+        );
+    }
+
+    #[test]
+    fn reads_the_shipped_files() {
+        let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/data");
+        let t = read_tracks(&Path::new(dir).join("thor1/exp-1-run-2.csv"), Format::Thor).unwrap();
+        assert_eq!(t.len(), 87);
+        let t = read_tracks(&Path::new(dir).join("thor3/exp-3-run-2.csv"), Format::Thor).unwrap();
+        assert_eq!(t.len(), 126);
+        let t = read_tracks(
+            &Path::new(dir).join("atc/dev/atc-1024-13_test.csv"),
+            Format::Atc,
+        )
+        .unwrap();
+        assert_eq!(t.iter().map(|t| t.rows.len()).sum::<usize>(), 7973);
+    }
+}

@@ -1,0 +1,3 @@
+//! Evaluation: dataset readers, protocols and metrics.
+
+pub mod dataset;
