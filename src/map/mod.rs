@@ -19,9 +19,11 @@
 //! assert!(near.is_some());
 //! ```
 
+pub mod build;
 mod csv;
 mod demo;
 mod grid;
+pub mod score;
 mod snapshot;
 
 use std::f64::consts::TAU;
@@ -36,6 +38,8 @@ use serde::{Deserialize, Serialize};
 pub use csv::{read_csv, read_csv_str, write_csv, write_csv_string};
 pub use grid::GridIndex;
 pub use snapshot::{SNAPSHOT_MAGIC, SNAPSHOT_VERSION, read_snapshot, write_snapshot};
+pub use build::{BuildParams, Observation, build_map};
+pub use score::{ScoreParams, ScoreReport, score};
 
 /// One semi-wrapped normal component of a location's velocity mixture.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]

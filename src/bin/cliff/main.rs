@@ -2,6 +2,7 @@
 //!
 //! A thin layer over the `cliff` library: each subcommand group lives in its own module.
 
+mod map_build_cmd;
 mod map_cmd;
 
 use clap::{Parser, Subcommand};

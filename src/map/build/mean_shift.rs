@@ -1,0 +1,447 @@
+//! Mean shift over (direction, speed) samples: the initial components of a node
+//! (section 3 of `cliffmap-building.md`).
+//!
+//! Two versions with the same model: [`MeanShift::Exact`] runs one mode seeker per
+//! sample and sums the kernel over every sample, as the original does (O(n^2) per
+//! iteration); [`MeanShift::Binned`] bins the samples on a fine (theta, rho) grid,
+//! runs one seeker per occupied bin and sums the kernel over nearby bins weighted by
+//! their counts. The bin sums of `sin theta`, `cos theta` and `rho` are exact; only the
+//! kernel weight is taken at the bin centre, and bins are kept at most 1/8 of the
+//! kernel's standard deviation wide so that this costs no accuracy.
+
+use std::f64::consts::{PI, TAU};
+
+use super::stats::wrap_pi;
+use crate::map::wrap_2pi;
+
+/// How mean shift sums its kernel.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum MeanShift {
+    /// One seeker per sample, kernel summed over every sample (the original; slow on
+    /// busy nodes).
+    Exact,
+    /// Weighted binning: bins at most `theta_bin` (rad) by `rho_bin` (m/s) wide, and
+    /// at most 1/8 of the kernel's standard deviation along each axis.
+    Binned {
+        /// Largest bin width along the direction (rad).
+        theta_bin: f64,
+        /// Largest bin width along the speed (m/s).
+        rho_bin: f64,
+    },
+}
+
+impl Default for MeanShift {
+    fn default() -> Self {
+        MeanShift::Binned {
+            theta_bin: 2f64.to_radians(),
+            rho_bin: 0.02,
+        }
+    }
+}
+
+/// Kernel covariance of mean shift: `diag(theta, rho)`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Bandwidth {
+    /// Kernel variance along the direction (rad^2).
+    pub theta: f64,
+    /// Kernel variance along the speed ((m/s)^2).
+    pub rho: f64,
+}
+
+/// Largest direction variance used for the bandwidth (a mean resultant length of
+/// `exp(-50)`): beyond it the kernel is flat over the circle anyway.
+const MAX_VAR_THETA: f64 = 100.0;
+
+impl Bandwidth {
+    /// The original's rule: `h = (4 V^5 / (3 n))^(1/5)` with V the circular and the
+    /// speed variance of all samples (variances in Silverman's rule, the quirk kept
+    /// for parity), `1e-10` added to an `h` below machine epsilon.
+    pub fn of(samples: &[[f64; 2]]) -> Self {
+        let st = super::stats::CircularLinearStats::of(samples.iter());
+        let n = samples.len() as f64;
+        let rule = |v: f64| {
+            let v = if v.is_finite() { v.clamp(0.0, MAX_VAR_THETA) } else { MAX_VAR_THETA };
+            let mut h = (4.0 * v.powi(5) / (3.0 * n)).powf(0.2);
+            if h < f64::EPSILON {
+                h += 1e-10;
+            }
+            h
+        };
+        Self {
+            theta: rule(st.var_theta),
+            rho: rule(st.var_rho),
+        }
+    }
+}
+
+/// Converged mode seekers: each with the number of samples it stands for, and the
+/// seeker of every sample.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Seekers {
+    /// Converged points (theta, rho), in seeker order.
+    pub points: Vec<[f64; 2]>,
+    /// Samples each seeker stands for.
+    pub counts: Vec<usize>,
+    /// Seeker index of every sample.
+    pub of_sample: Vec<u32>,
+}
+
+/// Kernel over a direction offset: sum over winding numbers -1, 0, 1.
+#[inline]
+fn kernel_theta(d: f64, h: f64) -> f64 {
+    let a = wrap_pi(d).abs();
+    let inv = -0.5 / h;
+    let mut k = (a * a * inv).exp();
+    // The other two windings matter only for wide kernels.
+    if h > 0.05 {
+        k += ((a - TAU) * (a - TAU) * inv).exp() + ((a + TAU) * (a + TAU) * inv).exp();
+    }
+    k
+}
+
+#[inline]
+fn converged(old: [f64; 2], new: [f64; 2], h: Bandwidth) -> bool {
+    wrap_pi(new[0] - old[0]).abs() < 1e-3 * h.theta && (new[1] - old[1]).abs() < 1e-3 * h.rho
+}
+
+/// Run mean shift on `samples` ((theta in `[0, 2pi)`, rho)) with kernel `h`, at most
+/// `max_iter` iterations per seeker.
+pub fn seek_modes(samples: &[[f64; 2]], h: Bandwidth, mode: MeanShift, max_iter: usize) -> Seekers {
+    match mode {
+        MeanShift::Exact => seek_exact(samples, h, max_iter),
+        MeanShift::Binned { theta_bin, rho_bin } => {
+            seek_binned(samples, h, theta_bin, rho_bin, max_iter)
+        }
+    }
+}
+
+fn seek_exact(samples: &[[f64; 2]], h: Bandwidth, max_iter: usize) -> Seekers {
+    let points = samples
+        .iter()
+        .map(|&start| {
+            let mut y = start;
+            for _ in 0..max_iter {
+                let (mut sw, mut ss, mut sc, mut sr) = (0.0, 0.0, 0.0, 0.0);
+                for x in samples {
+                    let dr = x[1] - y[1];
+                    let w = kernel_theta(x[0] - y[0], h.theta) * (-0.5 * dr * dr / h.rho).exp();
+                    sw += w;
+                    ss += w * x[0].sin();
+                    sc += w * x[0].cos();
+                    sr += w * x[1];
+                }
+                if sw <= 0.0 {
+                    break;
+                }
+                let new = [wrap_2pi(ss.atan2(sc)), sr / sw];
+                let done = converged(y, new, h);
+                y = new;
+                if done {
+                    break;
+                }
+            }
+            y
+        })
+        .collect();
+    Seekers {
+        points,
+        counts: vec![1; samples.len()],
+        of_sample: (0..samples.len() as u32).collect(),
+    }
+}
+
+/// Occupied bins, sorted by (column, row), struct of arrays.
+struct Bins {
+    ncols: u32,
+    wt: f64,
+    wr: f64,
+    /// Distinct occupied columns and the index of their first bin (plus an end entry).
+    cols: Vec<u32>,
+    col_start: Vec<u32>,
+    row: Vec<u32>,
+    n: Vec<f64>,
+    s: Vec<f64>,
+    c: Vec<f64>,
+    p: Vec<f64>,
+    /// Seeker start: centroid of the bin.
+    start: Vec<[f64; 2]>,
+}
+
+fn make_bins(samples: &[[f64; 2]], h: Bandwidth, theta_bin: f64, rho_bin: f64) -> (Bins, Vec<u32>) {
+    let wt_max = theta_bin.min(h.theta.sqrt() / 8.0).max(1e-7);
+    let ncols = (TAU / wt_max).ceil().clamp(1.0, 1e8) as u32;
+    let wt = TAU / ncols as f64;
+    let wr = rho_bin.min(h.rho.sqrt() / 8.0).max(1e-9);
+    let key = |x: &[f64; 2]| -> u64 {
+        let c = ((x[0] / wt) as u32).min(ncols - 1);
+        let r = (x[1] / wr).clamp(0.0, u32::MAX as f64) as u32;
+        ((c as u64) << 32) | r as u64
+    };
+    let mut order: Vec<(u64, u32)> = samples
+        .iter()
+        .enumerate()
+        .map(|(i, x)| (key(x), i as u32))
+        .collect();
+    order.sort_unstable();
+    let mut b = Bins {
+        ncols,
+        wt,
+        wr,
+        cols: Vec::new(),
+        col_start: Vec::new(),
+        row: Vec::new(),
+        n: Vec::new(),
+        s: Vec::new(),
+        c: Vec::new(),
+        p: Vec::new(),
+        start: Vec::new(),
+    };
+    let mut of_sample = vec![0u32; samples.len()];
+    let mut i = 0;
+    while i < order.len() {
+        let k = order[i].0;
+        let mut j = i;
+        let (mut s, mut c, mut p, mut t) = (0.0, 0.0, 0.0, 0.0);
+        let bin = b.row.len() as u32;
+        while j < order.len() && order[j].0 == k {
+            let x = samples[order[j].1 as usize];
+            s += x[0].sin();
+            c += x[0].cos();
+            p += x[1];
+            t += x[0];
+            of_sample[order[j].1 as usize] = bin;
+            j += 1;
+        }
+        let col = (k >> 32) as u32;
+        if b.cols.last() != Some(&col) {
+            b.cols.push(col);
+            b.col_start.push(bin);
+        }
+        let n = (j - i) as f64;
+        b.row.push(k as u32);
+        b.n.push(n);
+        b.s.push(s);
+        b.c.push(c);
+        b.p.push(p);
+        // All samples of a bin lie within one column: their plain mean is the centroid.
+        b.start.push([t / n, p / n]);
+        i = j;
+    }
+    b.col_start.push(b.row.len() as u32);
+    (b, of_sample)
+}
+
+fn seek_binned(
+    samples: &[[f64; 2]],
+    h: Bandwidth,
+    theta_bin: f64,
+    rho_bin: f64,
+    max_iter: usize,
+) -> Seekers {
+    let (bins, of_sample) = make_bins(samples, h, theta_bin, rho_bin);
+    let st = h.theta.sqrt();
+    let sr = h.rho.sqrt();
+    // Kernel window: 6 standard deviations (a weight below 1.6e-8 of the peak).
+    let lt = 6.0 * st + bins.wt;
+    let lr = 6.0 * sr + bins.wr;
+    let all_cols = lt >= PI;
+    let max_row = bins.row.iter().copied().max().unwrap_or(0) as i64;
+    let inv_r = -0.5 / h.rho;
+    let mut kr: Vec<f64> = Vec::new();
+    let mut ranges: Vec<(u32, u32)> = Vec::with_capacity(2);
+    let mut points = Vec::with_capacity(bins.start.len());
+    for &start in &bins.start {
+        let mut y = start;
+        for _ in 0..max_iter {
+            // Row kernel table over the window.
+            let r_lo = (((y[1] - lr) / bins.wr).floor() as i64).max(0);
+            let r_hi = (((y[1] + lr) / bins.wr).floor() as i64).min(max_row);
+            kr.clear();
+            for r in r_lo..=r_hi {
+                let d = (r as f64 + 0.5) * bins.wr - y[1];
+                kr.push((d * d * inv_r).exp());
+            }
+            // Column ranges (wrapping).
+            ranges.clear();
+            let c_lo = ((y[0] - lt) / bins.wt).floor() as i64;
+            let c_hi = ((y[0] + lt) / bins.wt).floor() as i64;
+            let n = bins.ncols as i64;
+            if all_cols || c_hi - c_lo + 1 >= n {
+                ranges.push((0, bins.ncols - 1));
+            } else {
+                if c_lo < 0 {
+                    ranges.push(((c_lo + n).max(0) as u32, (n - 1) as u32));
+                    ranges.push((0, c_hi.min(n - 1) as u32));
+                } else if c_hi >= n {
+                    ranges.push((c_lo as u32, (n - 1) as u32));
+                    ranges.push((0, (c_hi - n) as u32));
+                } else {
+                    ranges.push((c_lo as u32, c_hi as u32));
+                }
+            }
+            let (mut sw, mut ss, mut sc, mut sp) = (0.0, 0.0, 0.0, 0.0);
+            for &(a, b) in &ranges {
+                let first = bins.cols.partition_point(|&c| c < a);
+                for ci in first..bins.cols.len() {
+                    let col = bins.cols[ci];
+                    if col > b {
+                        break;
+                    }
+                    let kt = kernel_theta((col as f64 + 0.5) * bins.wt - y[0], h.theta);
+                    if kt == 0.0 {
+                        continue;
+                    }
+                    for bi in bins.col_start[ci] as usize..bins.col_start[ci + 1] as usize {
+                        let r = bins.row[bi] as i64;
+                        if r < r_lo || r > r_hi {
+                            continue;
+                        }
+                        let w = kt * kr[(r - r_lo) as usize];
+                        sw += w * bins.n[bi];
+                        ss += w * bins.s[bi];
+                        sc += w * bins.c[bi];
+                        sp += w * bins.p[bi];
+                    }
+                }
+            }
+            if sw <= 0.0 {
+                break;
+            }
+            let new = [wrap_2pi(ss.atan2(sc)), sp / sw];
+            let done = converged(y, new, h);
+            y = new;
+            if done {
+                break;
+            }
+        }
+        points.push(y);
+    }
+    Seekers {
+        points,
+        counts: bins.n.iter().map(|&n| n as usize).collect(),
+        of_sample,
+    }
+}
+
+/// A group of converged seekers: its centre and member count.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Centre {
+    /// Circular mean direction and mean speed of the members' converged points.
+    pub point: [f64; 2],
+    /// Number of samples.
+    pub members: usize,
+}
+
+/// Group converged points, in seeker order: a point joins the first centre within
+/// `1e-2 h` in both coordinates (the centre becomes the mean of its members), otherwise
+/// it starts a new centre. Returns the centres and the centre of every seeker.
+pub fn group(seekers: &Seekers, h: Bandwidth) -> (Vec<Centre>, Vec<u32>) {
+    let (tt, tr) = (1e-2 * h.theta, 1e-2 * h.rho);
+    let mut centres: Vec<Centre> = Vec::new();
+    let mut sums: Vec<[f64; 3]> = Vec::new();
+    let mut of_seeker = Vec::with_capacity(seekers.points.len());
+    for (p, &m) in seekers.points.iter().zip(&seekers.counts) {
+        let mf = m as f64;
+        let found = centres
+            .iter()
+            .position(|c| wrap_pi(p[0] - c.point[0]).abs() <= tt && (p[1] - c.point[1]).abs() <= tr);
+        let j = match found {
+            Some(j) => j,
+            None => {
+                centres.push(Centre { point: *p, members: 0 });
+                sums.push([0.0; 3]);
+                centres.len() - 1
+            }
+        };
+        let s = &mut sums[j];
+        s[0] += mf * p[0].sin();
+        s[1] += mf * p[0].cos();
+        s[2] += mf * p[1];
+        let c = &mut centres[j];
+        c.members += m;
+        c.point = [wrap_2pi(s[0].atan2(s[1])), s[2] / c.members as f64];
+        of_seeker.push(j as u32);
+    }
+    (centres, of_seeker)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::SeedableRng;
+    use rand_distr::{Distribution, Normal};
+
+    fn blobs(n: usize, seed: u64) -> Vec<[f64; 2]> {
+        let mut rng = rand_xoshiro::Xoshiro256PlusPlus::seed_from_u64(seed);
+        let centres = [(0.05, 1.2, 0.15, 0.1), (PI, 0.8, 0.2, 0.08), (1.5, 1.5, 0.1, 0.15)];
+        (0..n)
+            .map(|i| {
+                let (t, r, st, sr) = centres[i % 3];
+                let t = t + st * Normal::new(0.0, 1.0).unwrap().sample(&mut rng);
+                let r = r + sr * Normal::<f64>::new(0.0, 1.0).unwrap().sample(&mut rng);
+                [wrap_2pi(t), r.abs().max(1e-3)]
+            })
+            .collect()
+    }
+
+    fn big_centres(samples: &[[f64; 2]], mode: MeanShift) -> Vec<Centre> {
+        let h = Bandwidth::of(samples);
+        let s = seek_modes(samples, h, mode, 1000);
+        let (c, _) = group(&s, h);
+        // Seekers stop at slightly different points on flat modes, and grouping is
+        // tight (1e-2 h): coalesce centres within a tenth of the kernel's deviation.
+        let mut out: Vec<Centre> = Vec::new();
+        for c in c {
+            match out.iter_mut().find(|o| {
+                wrap_pi(o.point[0] - c.point[0]).abs() < 0.1 * h.theta.sqrt()
+                    && (o.point[1] - c.point[1]).abs() < 0.1 * h.rho.sqrt()
+            }) {
+                Some(o) => o.members += c.members,
+                None => out.push(c),
+            }
+        }
+        out.retain(|c| c.members * 20 >= samples.len());
+        out.sort_by(|a, b| a.point[0].total_cmp(&b.point[0]));
+        out
+    }
+
+    #[test]
+    fn binned_finds_the_same_modes_as_exact() {
+        for (n, seed) in [(60, 1), (300, 2), (900, 3)] {
+            let x = blobs(n, seed);
+            let a = big_centres(&x, MeanShift::Exact);
+            let b = big_centres(&x, MeanShift::default());
+            assert!(!a.is_empty());
+            assert_eq!(a.len(), b.len(), "n {n}: {a:?} vs {b:?}");
+            let h = Bandwidth::of(&x);
+            for (p, q) in a.iter().zip(&b) {
+                // Same mode within a small share of the kernel width.
+                assert!(wrap_pi(p.point[0] - q.point[0]).abs() < 0.05 * h.theta.sqrt(), "{p:?} {q:?}");
+                assert!((p.point[1] - q.point[1]).abs() < 0.05 * h.rho.sqrt(), "{p:?} {q:?}");
+                let d = p.members.abs_diff(q.members);
+                assert!(d * 50 <= n, "members {p:?} {q:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn mode_straddling_zero_is_one_mode() {
+        // Two flows only: the kernel (wide, by the original's rule) keeps them apart.
+        let x: Vec<_> = blobs(450, 5).into_iter().enumerate().filter(|(i, _)| i % 3 != 2).map(|(_, x)| x).collect();
+        let c = big_centres(&x, MeanShift::default());
+        assert_eq!(c.len(), 2, "{c:?}");
+        let near_zero: Vec<_> = c.iter().filter(|c| wrap_pi(c.point[0]).abs() < 0.3).collect();
+        assert_eq!(near_zero.len(), 1, "{c:?}");
+        assert!(wrap_pi(near_zero[0].point[0] - 0.05).abs() < 0.05);
+    }
+
+    #[test]
+    fn tiny_bandwidth_does_not_blow_up() {
+        // Nearly identical samples: a bandwidth near 1e-10 and a very fine bin grid.
+        let x = vec![[1.0, 1.0], [1.0, 1.0], [1.0 + 1e-9, 1.0]];
+        let h = Bandwidth::of(&x);
+        let s = seek_modes(&x, h, MeanShift::default(), 100);
+        assert_eq!(s.of_sample.len(), 3);
+        assert!(s.points.iter().all(|p| p[0].is_finite() && p[1].is_finite()));
+    }
+}
