@@ -69,7 +69,7 @@ pub struct BuildArgs {
     pub em_max_iter: usize,
     /// EM stops when the log-likelihood changes by at most this share of its size
     /// (0: the original's absolute 1e-5 only).
-    #[arg(long, default_value_t = 1e-6)]
+    #[arg(long, default_value_t = 1e-5)]
     pub em_rel_tol: f64,
     /// Worker threads (0: all cores).
     #[arg(long, default_value_t = 0)]

@@ -23,7 +23,7 @@ impl Default for EmParams {
         Self {
             max_iter: 500,
             abs_tol: 1e-5,
-            rel_tol: 1e-6,
+            rel_tol: 1e-5,
         }
     }
 }

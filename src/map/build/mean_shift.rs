@@ -9,7 +9,7 @@
 //! kernel weight is taken at the bin centre, and bins are kept at most 1/8 of the
 //! kernel's standard deviation wide so that this costs no accuracy.
 
-use std::f64::consts::{PI, TAU};
+use std::f64::consts::TAU;
 
 use super::stats::wrap_pi;
 use crate::map::wrap_2pi;
@@ -231,6 +231,187 @@ fn make_bins(samples: &[[f64; 2]], h: Bandwidth, theta_bin: f64, rho_bin: f64) -
     (b, of_sample)
 }
 
+/// Largest lattice (cells) of the cached smoothed field; beyond it (a tiny bandwidth
+/// on a wide spread of samples) the kernel sums are taken directly at each seeker.
+const MAX_FIELD_CELLS: usize = 1 << 19;
+
+/// Kernel window: 6 standard deviations (a weight below 1.6e-8 of the peak).
+const WINDOW_SD: f64 = 6.0;
+
+impl Bins {
+    /// Occupied-column index ranges `(first, last)` (inclusive, wrapping) within `dc`
+    /// columns of column `c`.
+    fn column_ranges(&self, c: i64, dc: i64, out: &mut Vec<(u32, u32)>) {
+        out.clear();
+        let n = self.ncols as i64;
+        let (lo, hi) = (c - dc, c + dc);
+        if hi - lo + 1 >= n {
+            out.push((0, self.ncols - 1));
+        } else if lo < 0 {
+            out.push(((lo + n) as u32, (n - 1) as u32));
+            out.push((0, hi as u32));
+        } else if hi >= n {
+            out.push((lo as u32, (n - 1) as u32));
+            out.push((0, (hi - n) as u32));
+        } else {
+            out.push((lo as u32, hi as u32));
+        }
+    }
+
+    /// Kernel-weighted sums `(N, S, C, P)` at an arbitrary point, straight over the bins.
+    fn direct(&self, y: [f64; 2], h: Bandwidth, ranges: &mut Vec<(u32, u32)>) -> [f64; 4] {
+        let lr = WINDOW_SD * h.rho.sqrt() + self.wr;
+        let dc = ((WINDOW_SD * h.theta.sqrt()) / self.wt).ceil() as i64 + 1;
+        let inv_r = -0.5 / h.rho;
+        self.column_ranges((y[0] / self.wt).floor() as i64, dc, ranges);
+        let mut f = [0.0; 4];
+        for &(a, b) in ranges.iter() {
+            let first = self.cols.partition_point(|&c| c < a);
+            for ci in first..self.cols.len() {
+                let col = self.cols[ci];
+                if col > b {
+                    break;
+                }
+                let kt = kernel_theta((col as f64 + 0.5) * self.wt - y[0], h.theta);
+                for bi in self.col_start[ci] as usize..self.col_start[ci + 1] as usize {
+                    let d = (self.row[bi] as f64 + 0.5) * self.wr - y[1];
+                    if d.abs() > lr {
+                        continue;
+                    }
+                    let w = kt * (d * d * inv_r).exp();
+                    f[0] += w * self.n[bi];
+                    f[1] += w * self.s[bi];
+                    f[2] += w * self.c[bi];
+                    f[3] += w * self.p[bi];
+                }
+            }
+        }
+        f
+    }
+}
+
+/// The kernel-smoothed sums `(N, S, C, P)` on the lattice of bin centres, computed on
+/// first use; seekers interpolate them bilinearly. On the lattice the kernel depends
+/// only on whole column and row offsets, so it comes from two small tables, and it is
+/// separable: each occupied column is first smoothed along the speed (`profile`), and
+/// a cell sums the profiles of the columns in reach.
+struct Field<'a> {
+    bins: &'a Bins,
+    kt: Vec<f64>,
+    row0: i64,
+    nrows: i64,
+    /// Per occupied column, per row: speed-smoothed sums.
+    profile: Vec<[f64; 4]>,
+    cells: Vec<[f64; 4]>,
+    done: Vec<bool>,
+    ranges: Vec<(u32, u32)>,
+}
+
+impl<'a> Field<'a> {
+    fn new(bins: &'a Bins, h: Bandwidth) -> Option<Self> {
+        let min_row = *bins.row.iter().min()? as i64;
+        let max_row = *bins.row.iter().max()? as i64;
+        let row0 = min_row - 1;
+        let nrows = max_row - min_row + 3;
+        let cells = (bins.ncols as usize).checked_mul(nrows as usize)?;
+        if cells > MAX_FIELD_CELLS {
+            return None;
+        }
+        let dc = (((WINDOW_SD * h.theta.sqrt()) / bins.wt).ceil() as i64 + 1).min(bins.ncols as i64 / 2);
+        let dr = ((WINDOW_SD * h.rho.sqrt()) / bins.wr).ceil() as i64 + 1;
+        let kt = (0..=dc).map(|d| kernel_theta(d as f64 * bins.wt, h.theta)).collect();
+        let kr: Vec<f64> = (0..=dr)
+            .map(|d| {
+                let x = d as f64 * bins.wr;
+                (-0.5 * x * x / h.rho).exp()
+            })
+            .collect();
+        let mut profile = vec![[0.0; 4]; bins.cols.len() * nrows as usize];
+        for ci in 0..bins.cols.len() {
+            let prof = &mut profile[ci * nrows as usize..(ci + 1) * nrows as usize];
+            for bi in bins.col_start[ci] as usize..bins.col_start[ci + 1] as usize {
+                let row = bins.row[bi] as i64;
+                let f = [bins.n[bi], bins.s[bi], bins.c[bi], bins.p[bi]];
+                let lo = (row - dr).max(row0);
+                let hi = (row + dr).min(row0 + nrows - 1);
+                for r in lo..=hi {
+                    let w = kr[(r - row).unsigned_abs() as usize];
+                    let g = &mut prof[(r - row0) as usize];
+                    for k in 0..4 {
+                        g[k] += w * f[k];
+                    }
+                }
+            }
+        }
+        Some(Self {
+            bins,
+            kt,
+            row0,
+            nrows,
+            profile,
+            cells: vec![[0.0; 4]; cells],
+            done: vec![false; cells],
+            ranges: Vec::with_capacity(2),
+        })
+    }
+
+    fn cell(&mut self, c: i64, r: i64) -> [f64; 4] {
+        let n = self.bins.ncols as i64;
+        let c = c.rem_euclid(n);
+        let r = r.clamp(self.row0, self.row0 + self.nrows - 1);
+        let i = (c * self.nrows + (r - self.row0)) as usize;
+        if !self.done[i] {
+            self.cells[i] = self.compute(c, r);
+            self.done[i] = true;
+        }
+        self.cells[i]
+    }
+
+    fn compute(&mut self, c: i64, r: i64) -> [f64; 4] {
+        let b = self.bins;
+        let n = b.ncols as i64;
+        let dc = self.kt.len() as i64 - 1;
+        b.column_ranges(c, dc, &mut self.ranges);
+        let ri = (r - self.row0) as usize;
+        let nrows = self.nrows as usize;
+        let mut f = [0.0; 4];
+        for &(lo, hi) in &self.ranges {
+            let first = b.cols.partition_point(|&x| x < lo);
+            for ci in first..b.cols.len() {
+                let col = b.cols[ci];
+                if col > hi {
+                    break;
+                }
+                let d = (col as i64 - c).rem_euclid(n);
+                let kt = self.kt[d.min(n - d) as usize];
+                let g = &self.profile[ci * nrows + ri];
+                for k in 0..4 {
+                    f[k] += kt * g[k];
+                }
+            }
+        }
+        f
+    }
+
+    /// Bilinear interpolation of the sums at `y`.
+    fn at(&mut self, y: [f64; 2]) -> [f64; 4] {
+        let u = y[0] / self.bins.wt - 0.5;
+        let v = y[1] / self.bins.wr - 0.5;
+        let (c0, r0) = (u.floor(), v.floor());
+        let (fu, fv) = (u - c0, v - r0);
+        let (c0, r0) = (c0 as i64, r0 as i64);
+        let a = self.cell(c0, r0);
+        let b = self.cell(c0 + 1, r0);
+        let c = self.cell(c0, r0 + 1);
+        let d = self.cell(c0 + 1, r0 + 1);
+        let mut f = [0.0; 4];
+        for k in 0..4 {
+            f[k] = (1.0 - fu) * (1.0 - fv) * a[k] + fu * (1.0 - fv) * b[k] + (1.0 - fu) * fv * c[k] + fu * fv * d[k];
+        }
+        f
+    }
+}
+
 fn seek_binned(
     samples: &[[f64; 2]],
     h: Bandwidth,
@@ -239,83 +420,31 @@ fn seek_binned(
     max_iter: usize,
 ) -> Seekers {
     let (bins, of_sample) = make_bins(samples, h, theta_bin, rho_bin);
-    let st = h.theta.sqrt();
-    let sr = h.rho.sqrt();
-    // Kernel window: 6 standard deviations (a weight below 1.6e-8 of the peak).
-    let lt = 6.0 * st + bins.wt;
-    let lr = 6.0 * sr + bins.wr;
-    let all_cols = lt >= PI;
-    let max_row = bins.row.iter().copied().max().unwrap_or(0) as i64;
-    let inv_r = -0.5 / h.rho;
-    let mut kr: Vec<f64> = Vec::new();
-    let mut ranges: Vec<(u32, u32)> = Vec::with_capacity(2);
-    let mut points = Vec::with_capacity(bins.start.len());
-    for &start in &bins.start {
-        let mut y = start;
-        for _ in 0..max_iter {
-            // Row kernel table over the window.
-            let r_lo = (((y[1] - lr) / bins.wr).floor() as i64).max(0);
-            let r_hi = (((y[1] + lr) / bins.wr).floor() as i64).min(max_row);
-            kr.clear();
-            for r in r_lo..=r_hi {
-                let d = (r as f64 + 0.5) * bins.wr - y[1];
-                kr.push((d * d * inv_r).exp());
-            }
-            // Column ranges (wrapping).
-            ranges.clear();
-            let c_lo = ((y[0] - lt) / bins.wt).floor() as i64;
-            let c_hi = ((y[0] + lt) / bins.wt).floor() as i64;
-            let n = bins.ncols as i64;
-            if all_cols || c_hi - c_lo + 1 >= n {
-                ranges.push((0, bins.ncols - 1));
-            } else {
-                if c_lo < 0 {
-                    ranges.push(((c_lo + n).max(0) as u32, (n - 1) as u32));
-                    ranges.push((0, c_hi.min(n - 1) as u32));
-                } else if c_hi >= n {
-                    ranges.push((c_lo as u32, (n - 1) as u32));
-                    ranges.push((0, (c_hi - n) as u32));
-                } else {
-                    ranges.push((c_lo as u32, c_hi as u32));
+    let mut field = Field::new(&bins, h);
+    let mut ranges = Vec::with_capacity(2);
+    let points = bins
+        .start
+        .iter()
+        .map(|&start| {
+            let mut y = start;
+            for _ in 0..max_iter {
+                let f = match field.as_mut() {
+                    Some(field) => field.at(y),
+                    None => bins.direct(y, h, &mut ranges),
+                };
+                if !(f[0] > 0.0) {
+                    break;
+                }
+                let new = [wrap_2pi(f[1].atan2(f[2])), f[3] / f[0]];
+                let done = converged(y, new, h);
+                y = new;
+                if done {
+                    break;
                 }
             }
-            let (mut sw, mut ss, mut sc, mut sp) = (0.0, 0.0, 0.0, 0.0);
-            for &(a, b) in &ranges {
-                let first = bins.cols.partition_point(|&c| c < a);
-                for ci in first..bins.cols.len() {
-                    let col = bins.cols[ci];
-                    if col > b {
-                        break;
-                    }
-                    let kt = kernel_theta((col as f64 + 0.5) * bins.wt - y[0], h.theta);
-                    if kt == 0.0 {
-                        continue;
-                    }
-                    for bi in bins.col_start[ci] as usize..bins.col_start[ci + 1] as usize {
-                        let r = bins.row[bi] as i64;
-                        if r < r_lo || r > r_hi {
-                            continue;
-                        }
-                        let w = kt * kr[(r - r_lo) as usize];
-                        sw += w * bins.n[bi];
-                        ss += w * bins.s[bi];
-                        sc += w * bins.c[bi];
-                        sp += w * bins.p[bi];
-                    }
-                }
-            }
-            if sw <= 0.0 {
-                break;
-            }
-            let new = [wrap_2pi(ss.atan2(sc)), sp / sw];
-            let done = converged(y, new, h);
-            y = new;
-            if done {
-                break;
-            }
-        }
-        points.push(y);
-    }
+            y
+        })
+        .collect();
     Seekers {
         points,
         counts: bins.n.iter().map(|&n| n as usize).collect(),
@@ -369,6 +498,7 @@ pub fn group(seekers: &Seekers, h: Bandwidth) -> (Vec<Centre>, Vec<u32>) {
 mod tests {
     use super::*;
     use rand::SeedableRng;
+    use std::f64::consts::PI;
     use rand_distr::{Distribution, Normal};
 
     fn blobs(n: usize, seed: u64) -> Vec<[f64; 2]> {
