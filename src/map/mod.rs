@@ -25,6 +25,7 @@ mod demo;
 mod grid;
 pub mod score;
 mod snapshot;
+pub mod update;
 
 use std::f64::consts::TAU;
 use std::path::Path;
@@ -40,6 +41,7 @@ pub use grid::GridIndex;
 pub use snapshot::{SNAPSHOT_MAGIC, SNAPSHOT_VERSION, read_snapshot, write_snapshot};
 pub use build::{BuildParams, Observation, build_map};
 pub use score::{ScoreParams, ScoreReport, score};
+pub use update::{OnlineMap, UpdateParams};
 
 /// One semi-wrapped normal component of a location's velocity mixture.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
