@@ -238,3 +238,47 @@ fn hourly_online_updates_end_close_to_the_batch_map() {
     println!("online vs batch: {:.2} %", 100.0 * gap);
     assert!(gap >= -0.02, "online mean {} vs batch {}", s.mean_log_likelihood, batch.mean_log_likelihood);
 }
+
+#[test]
+fn predictions_with_the_built_map_are_as_good_as_with_the_shipped_map() {
+    use cliff::eval::protocol::{Protocol, Settings};
+    use cliff::eval::{EvalConfig, SummaryRow, evaluate};
+    use cliff::predict::{Method, Params};
+    let tracks = read_many(&atc_files("dev", &DEV_HOURS), Format::Atc).unwrap();
+    let cfg = EvalConfig {
+        settings: Settings {
+            protocol: Protocol::Seconds,
+            obs: 3.2,
+            dt: 1.0,
+            horizon: 50.0,
+            ..Settings::default()
+        },
+        params: Params {
+            k: 20,
+            beta: 1.0,
+            radius: 1.0,
+            ..Params::default()
+        },
+        seeds: 20,
+        methods: vec![Method::Cliff],
+    };
+    let at_50 = |map: &CliffMap| -> SummaryRow {
+        let report = evaluate(map, &tracks, &cfg, &|| {}).unwrap();
+        report
+            .summary
+            .into_iter()
+            .find(|r| r.method == Method::Cliff && (r.horizon - 50.0).abs() < 1e-9)
+            .expect("a row at 50 s")
+    };
+    let ours = at_50(&train_map().map);
+    let shipped = at_50(&CliffMap::load(data("atc/cliffmap-20121024.csv")).unwrap());
+    for (name, r) in [("built from atc/train", &ours), ("shipped (whole day)", &shipped)] {
+        println!(
+            "{name:<22} at 50 s: ADE {:.3} (sd {:.3})  FDE {:.3} (sd {:.3})  people {:.2}",
+            r.ade, r.ade_sd, r.fde, r.fde_sd, r.people
+        );
+    }
+    assert!(ours.people > 30.0, "{}", ours.people);
+    assert!(ours.ade <= 1.05 * shipped.ade, "ADE {} vs {}", ours.ade, shipped.ade);
+    assert!(ours.fde <= 1.05 * shipped.fde, "FDE {} vs {}", ours.fde, shipped.fde);
+}
