@@ -114,20 +114,36 @@ fn synthetic_mixture_is_recovered_including_one_across_zero() {
             .iter()
             .enumerate()
             .min_by(|a, b| {
-                let d = |f: &cliff::map::Component| wrap_pi(f.theta - mu[0]).abs() + (f.rho - mu[1]).abs();
+                let d = |f: &cliff::map::Component| {
+                    wrap_pi(f.theta - mu[0]).abs() + (f.rho - mu[1]).abs()
+                };
                 d(a.1).total_cmp(&d(b.1))
             })
             .unwrap();
         used[j] = true;
-        assert!(wrap_pi(f.theta - mu[0]).abs() < 0.02, "mean direction {f:?} vs {mu:?}");
+        assert!(
+            wrap_pi(f.theta - mu[0]).abs() < 0.02,
+            "mean direction {f:?} vs {mu:?}"
+        );
         assert!((f.rho - mu[1]).abs() < 0.02, "mean speed {f:?} vs {mu:?}");
-        assert!((f.cov[0] / c[0] - 1.0).abs() < 0.15, "var theta {f:?} vs {c:?}");
-        assert!((f.cov[3] / c[2] - 1.0).abs() < 0.15, "var rho {f:?} vs {c:?}");
+        assert!(
+            (f.cov[0] / c[0] - 1.0).abs() < 0.15,
+            "var theta {f:?} vs {c:?}"
+        );
+        assert!(
+            (f.cov[3] / c[2] - 1.0).abs() < 0.15,
+            "var rho {f:?} vs {c:?}"
+        );
         assert!((f.cov[1] - c[1]).abs() < 0.003, "cov {f:?} vs {c:?}");
         assert!((f.weight - w).abs() < 0.03, "weight {f:?} vs {w}");
     }
     // Anything else the fit found carries little weight.
-    let extra: f64 = fit.iter().zip(&used).filter(|(_, u)| !**u).map(|(f, _)| f.weight).sum();
+    let extra: f64 = fit
+        .iter()
+        .zip(&used)
+        .filter(|(_, u)| !**u)
+        .map(|(f, _)| f.weight)
+        .sum();
     assert!(extra < 0.03, "extra weight {extra}");
 }
 
@@ -141,7 +157,10 @@ fn build_is_reproducible_and_independent_of_threads() {
         ..BuildParams::default()
     };
     let run = |threads: usize| {
-        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
         pool.install(|| cliff::map::write_csv_string(&build_map(&obs, &params).unwrap().map))
     };
     let a = run(1);
@@ -154,10 +173,23 @@ fn build_is_reproducible_and_independent_of_threads() {
 fn binned_mean_shift_matches_exact_on_small_nodes() {
     // A 12 m x 8 m part of the hall in hour 13: nodes of tens to a few hundred samples,
     // where the exact O(n^2) mean shift is affordable.
-    let inside = |o: &Observation| (0.0..12.0).contains(&o.position.x) && (-8.0..0.0).contains(&o.position.y);
-    let obs: Vec<Observation> = atc_obs(&atc_files("train", &[13])).into_iter().filter(inside).collect();
-    let test: Vec<Observation> = atc_obs(&atc_files("dev", &[13, 15])).into_iter().filter(inside).collect();
-    assert!(obs.len() > 1000 && test.len() > 100, "{} {}", obs.len(), test.len());
+    let inside = |o: &Observation| {
+        (0.0..12.0).contains(&o.position.x) && (-8.0..0.0).contains(&o.position.y)
+    };
+    let obs: Vec<Observation> = atc_obs(&atc_files("train", &[13]))
+        .into_iter()
+        .filter(inside)
+        .collect();
+    let test: Vec<Observation> = atc_obs(&atc_files("dev", &[13, 15]))
+        .into_iter()
+        .filter(inside)
+        .collect();
+    assert!(
+        obs.len() > 1000 && test.len() > 100,
+        "{} {}",
+        obs.len(),
+        test.len()
+    );
     let exact = BuildParams {
         fit: FitParams {
             mean_shift: MeanShift::Exact,
@@ -170,7 +202,10 @@ fn binned_mean_shift_matches_exact_on_small_nodes() {
     let (sa, sb) = (atc_score(&a.map, &test), atc_score(&b.map, &test));
     show("exact mean shift", &sa);
     show("binned mean shift", &sb);
-    println!("components: exact {}, binned {}", a.summary.components, b.summary.components);
+    println!(
+        "components: exact {}, binned {}",
+        a.summary.components, b.summary.components
+    );
     assert_eq!(a.summary.locations, b.summary.locations);
     assert!((sa.mean_log_likelihood - sb.mean_log_likelihood).abs() < 0.02);
     assert!((sa.median_log_likelihood - sb.median_log_likelihood).abs() < 0.02);
@@ -199,7 +234,13 @@ fn hour13_map_scores_at_least_as_well_as_the_matlab_reference() {
     assert!(ours.unmatched <= matlab.unmatched);
     // Same nodes as the original: whole-metre positions, the same busiest count.
     assert_eq!(built.summary.max_count, 3598);
-    assert!(built.map.locations().iter().all(|l| l.position.x.fract() == 0.0 && l.position.y.fract() == 0.0));
+    assert!(
+        built
+            .map
+            .locations()
+            .iter()
+            .all(|l| l.position.x.fract() == 0.0 && l.position.y.fract() == 0.0)
+    );
 }
 
 #[test]
@@ -207,13 +248,20 @@ fn atc_train_map_scores_on_dev_at_least_as_well_as_the_shipped_map() {
     let built = train_map();
     let dev = dev_obs();
     let ours = atc_score(&built.map, dev);
-    let shipped = atc_score(&CliffMap::load(data("atc/cliffmap-20121024.csv")).unwrap(), dev);
+    let shipped = atc_score(
+        &CliffMap::load(data("atc/cliffmap-20121024.csv")).unwrap(),
+        dev,
+    );
     show("built from atc/train", &ours);
     show("shipped (whole day)", &shipped);
     assert_eq!(ours.observations, shipped.observations);
     assert!(ours.mean_log_likelihood >= shipped.mean_log_likelihood);
     assert!(ours.median_log_likelihood >= shipped.median_log_likelihood);
-    assert!(ours.unmatched * 1000 <= ours.observations, "{}", ours.unmatched);
+    assert!(
+        ours.unmatched * 1000 <= ours.observations,
+        "{}",
+        ours.unmatched
+    );
 }
 
 #[test]
@@ -222,7 +270,8 @@ fn hourly_online_updates_end_close_to_the_batch_map() {
     let batch = atc_score(&train_map().map, dev);
     let mut hours = TRAIN_HOURS.iter();
     let first = atc_obs(&atc_files("train", &[*hours.next().unwrap()]));
-    let mut online = OnlineMap::build(&first, &BuildParams::default(), UpdateParams::default()).unwrap();
+    let mut online =
+        OnlineMap::build(&first, &BuildParams::default(), UpdateParams::default()).unwrap();
     for &h in hours {
         let r = online.update(&atc_obs(&atc_files("train", &[h]))).unwrap();
         println!("hour {h}: {r:?}");
@@ -232,11 +281,21 @@ fn hourly_online_updates_end_close_to_the_batch_map() {
     show("batch, atc/train", &batch);
     show("online, hour by hour", &s);
     // Nodes do not grow without bound.
-    let max_c = map.locations().iter().map(|l| l.components.len()).max().unwrap();
+    let max_c = map
+        .locations()
+        .iter()
+        .map(|l| l.components.len())
+        .max()
+        .unwrap();
     assert!(max_c <= UpdateParams::default().max_components);
     let gap = (s.mean_log_likelihood - batch.mean_log_likelihood) / batch.mean_log_likelihood.abs();
     println!("online vs batch: {:.2} %", 100.0 * gap);
-    assert!(gap >= -0.02, "online mean {} vs batch {}", s.mean_log_likelihood, batch.mean_log_likelihood);
+    assert!(
+        gap >= -0.02,
+        "online mean {} vs batch {}",
+        s.mean_log_likelihood,
+        batch.mean_log_likelihood
+    );
 }
 
 #[test]
@@ -272,13 +331,26 @@ fn predictions_with_the_built_map_are_as_good_as_with_the_shipped_map() {
     };
     let ours = at_50(&train_map().map);
     let shipped = at_50(&CliffMap::load(data("atc/cliffmap-20121024.csv")).unwrap());
-    for (name, r) in [("built from atc/train", &ours), ("shipped (whole day)", &shipped)] {
+    for (name, r) in [
+        ("built from atc/train", &ours),
+        ("shipped (whole day)", &shipped),
+    ] {
         println!(
             "{name:<22} at 50 s: ADE {:.3} (sd {:.3})  FDE {:.3} (sd {:.3})  people {:.2}",
             r.ade, r.ade_sd, r.fde, r.fde_sd, r.people
         );
     }
     assert!(ours.people > 30.0, "{}", ours.people);
-    assert!(ours.ade <= 1.05 * shipped.ade, "ADE {} vs {}", ours.ade, shipped.ade);
-    assert!(ours.fde <= 1.05 * shipped.fde, "FDE {} vs {}", ours.fde, shipped.fde);
+    assert!(
+        ours.ade <= 1.05 * shipped.ade,
+        "ADE {} vs {}",
+        ours.ade,
+        shipped.ade
+    );
+    assert!(
+        ours.fde <= 1.05 * shipped.fde,
+        "FDE {} vs {}",
+        ours.fde,
+        shipped.fde
+    );
 }

@@ -36,11 +36,11 @@ use rand::{Rng, RngExt};
 use rand_distr::StandardNormal;
 use serde::{Deserialize, Serialize};
 
+pub use build::{BuildParams, Observation, build_map};
 pub use csv::{read_csv, read_csv_str, write_csv, write_csv_string};
 pub use grid::GridIndex;
-pub use snapshot::{SNAPSHOT_MAGIC, SNAPSHOT_VERSION, read_snapshot, write_snapshot};
-pub use build::{BuildParams, Observation, build_map};
 pub use score::{ScoreParams, ScoreReport, score};
+pub use snapshot::{SNAPSHOT_MAGIC, SNAPSHOT_VERSION, read_snapshot, write_snapshot};
 pub use update::{OnlineMap, UpdateParams};
 
 /// One semi-wrapped normal component of a location's velocity mixture.

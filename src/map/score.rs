@@ -115,7 +115,11 @@ impl<'a> Scorer<'a> {
     /// radius; `None` when there is none.
     pub fn log_likelihood(&self, o: &Observation) -> Option<f64> {
         let i = self.map.nearest(o.position, self.params.radius)?;
-        Some(log_mixture(&self.gauss[self.start[i]..self.start[i + 1]], o.theta, o.rho))
+        Some(log_mixture(
+            &self.gauss[self.start[i]..self.start[i + 1]],
+            o.theta,
+            o.rho,
+        ))
     }
 }
 
@@ -142,11 +146,18 @@ pub(crate) fn log_mixture(gauss: &[Gauss2], theta: f64, rho: f64) -> f64 {
 }
 
 /// Score `map` on `obs` (see the module documentation).
-pub fn score(map: &CliffMap, obs: &[Observation], params: &ScoreParams) -> Result<ScoreReport, BuildError> {
+pub fn score(
+    map: &CliffMap,
+    obs: &[Observation],
+    params: &ScoreParams,
+) -> Result<ScoreReport, BuildError> {
     check_observations(obs)?;
     let scorer = Scorer::new(map, params)?;
     let moving: Vec<&Observation> = obs.iter().filter(|o| o.rho > 0.0).collect();
-    let lls: Vec<Option<f64>> = moving.par_iter().map(|o| scorer.log_likelihood(o)).collect();
+    let lls: Vec<Option<f64>> = moving
+        .par_iter()
+        .map(|o| scorer.log_likelihood(o))
+        .collect();
     let mut matched: Vec<f64> = lls.iter().flatten().copied().collect();
     let unmatched = moving.len() - matched.len();
     let n = matched.len();
@@ -166,7 +177,11 @@ pub fn score(map: &CliffMap, obs: &[Observation], params: &ScoreParams) -> Resul
         unmatched,
         mean_log_likelihood: mean,
         median_log_likelihood: median,
-        share_below: if n == 0 { f64::NAN } else { bad as f64 / n as f64 },
+        share_below: if n == 0 {
+            f64::NAN
+        } else {
+            bad as f64 / n as f64
+        },
         bad_below: params.bad_below,
         radius: params.radius,
     })

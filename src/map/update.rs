@@ -105,14 +105,23 @@ impl UpdateParams {
         {
             return bad(format!("radius {r} m must be positive"));
         }
-        if !(self.gate > 0.0 && self.merge_distance >= 0.0 && self.min_weight >= 0.0 && self.min_weight < 1.0) {
-            return bad("gate must be positive, merge distance and minimum weight not negative".into());
+        if !(self.gate > 0.0
+            && self.merge_distance >= 0.0
+            && self.min_weight >= 0.0
+            && self.min_weight < 1.0)
+        {
+            return bad(
+                "gate must be positive, merge distance and minimum weight not negative".into(),
+            );
         }
         if self.max_components == 0 {
             return bad("max_components must be at least 1".into());
         }
         if !(self.cov_floor > 0.0 && self.cov_floor.is_finite()) {
-            return bad(format!("covariance floor {} must be positive", self.cov_floor));
+            return bad(format!(
+                "covariance floor {} must be positive",
+                self.cov_floor
+            ));
         }
         self.fit.check()
     }
@@ -164,7 +173,11 @@ struct NodeChange {
 
 impl OnlineMap {
     /// Build a map from observations in batch (see [`build_map`]) and keep its counts.
-    pub fn build(obs: &[Observation], build: &BuildParams, params: UpdateParams) -> Result<Self, BuildError> {
+    pub fn build(
+        obs: &[Observation],
+        build: &BuildParams,
+        params: UpdateParams,
+    ) -> Result<Self, BuildError> {
         let built = build_map(obs, build)?;
         let params = UpdateParams {
             radius: Some(params.radius.unwrap_or(build.radius)),
@@ -182,7 +195,11 @@ impl OnlineMap {
 
     /// Start from a map whose observation ratio 1 stands for `count_scale` moving
     /// samples (the busiest node's count when the map was built).
-    pub fn from_map(map: &CliffMap, count_scale: f64, params: UpdateParams) -> Result<Self, BuildError> {
+    pub fn from_map(
+        map: &CliffMap,
+        count_scale: f64,
+        params: UpdateParams,
+    ) -> Result<Self, BuildError> {
         if !(count_scale.is_finite() && count_scale > 0.0) {
             return Err(BuildError::InvalidParam(format!(
                 "count scale {count_scale} must be positive"
@@ -197,12 +214,23 @@ impl OnlineMap {
             .locations()
             .iter()
             .zip(&counts)
-            .map(|(l, &c)| if l.motion_ratio > 0.0 { c / l.motion_ratio } else { c })
+            .map(|(l, &c)| {
+                if l.motion_ratio > 0.0 {
+                    c / l.motion_ratio
+                } else {
+                    c
+                }
+            })
             .collect();
         Self::with_counts(map, &counts, &totals, params)
     }
 
-    fn with_counts(map: &CliffMap, counts: &[f64], totals: &[f64], params: UpdateParams) -> Result<Self, BuildError> {
+    fn with_counts(
+        map: &CliffMap,
+        counts: &[f64],
+        totals: &[f64],
+        params: UpdateParams,
+    ) -> Result<Self, BuildError> {
         params.check()?;
         let step = map.grid().step();
         let first = map.locations()[0].position;
@@ -249,14 +277,19 @@ impl OnlineMap {
     pub fn busiest_node(&self, obs: &[Observation]) -> Result<usize, BuildError> {
         check_observations(obs)?;
         let nodes = split(obs, self.lattice, self.radius)?;
-        Ok((0..nodes.len()).map(|i| nodes.samples_of(i).len()).max().unwrap_or(0))
+        Ok((0..nodes.len())
+            .map(|i| nodes.samples_of(i).len())
+            .max()
+            .unwrap_or(0))
     }
 
     /// Rescale every node's effective counts so that the largest is `scale`.
     pub fn set_count_scale(&mut self, scale: f64) -> Result<(), BuildError> {
         let old = self.count_scale();
         if !(scale.is_finite() && scale > 0.0 && old > 0.0) {
-            return Err(BuildError::InvalidParam(format!("count scale {scale} must be positive")));
+            return Err(BuildError::InvalidParam(format!(
+                "count scale {scale} must be positive"
+            )));
         }
         let f = scale / old;
         for n in self.nodes.values_mut() {
@@ -293,7 +326,11 @@ impl OnlineMap {
                 match self.nodes.get(&split.keys[i]) {
                     Some(state) => {
                         let mut s = state.clone();
-                        let ch = if x.is_empty() { NodeChange::default() } else { update_node(&mut s, x, &p) };
+                        let ch = if x.is_empty() {
+                            NodeChange::default()
+                        } else {
+                            update_node(&mut s, x, &p)
+                        };
                         s.w += x.len() as f64;
                         s.w_all += total;
                         Some((s, ch, false))
@@ -342,7 +379,11 @@ impl OnlineMap {
             .map(|(&key, n)| Location {
                 position: self.lattice.position(key),
                 components: n.comps.clone(),
-                motion_ratio: if n.w_all > 0.0 { (n.w / n.w_all).min(1.0) } else { 1.0 },
+                motion_ratio: if n.w_all > 0.0 {
+                    (n.w / n.w_all).min(1.0)
+                } else {
+                    1.0
+                },
                 observation_ratio: if max_w > 0.0 { n.w / max_w } else { 0.0 },
             })
             .collect();
@@ -379,7 +420,8 @@ fn update_node(s: &mut NodeState, x: &[[f64; 2]], p: &UpdateParams) -> NodeChang
             g.maha(d, x[1] - g.mu[1]) <= p.gate
         })
     };
-    let (mut inside, outside): (Vec<[f64; 2]>, Vec<[f64; 2]>) = x.iter().partition(|x| explained(x));
+    let (mut inside, outside): (Vec<[f64; 2]>, Vec<[f64; 2]>) =
+        x.iter().partition(|x| explained(x));
     let mut fresh = if outside.len() >= p.fit.min_samples {
         fit_mixture(&outside, &p.fit)
     } else {
@@ -495,7 +537,11 @@ fn bhattacharyya(a: &Component, b: &Component) -> f64 {
 /// Moment-matched merge of two components (weights add).
 fn merge(a: &Component, b: &Component) -> Component {
     let w = a.weight + b.weight;
-    let (fa, fb) = if w > 0.0 { (a.weight / w, b.weight / w) } else { (0.5, 0.5) };
+    let (fa, fb) = if w > 0.0 {
+        (a.weight / w, b.weight / w)
+    } else {
+        (0.5, 0.5)
+    };
     let d = [wrap_pi(b.theta - a.theta), b.rho - a.rho];
     // Mean in coordinates relative to a.
     let mu = [fb * d[0], fb * d[1]];
@@ -542,10 +588,7 @@ fn tidy(comps: &mut Vec<Component>, p: &UpdateParams, ch: &mut NodeChange) {
     let before = comps.len();
     let total: f64 = comps.iter().map(|c| c.weight).sum();
     if comps.len() > 1 {
-        let keep_at_least = comps
-            .iter()
-            .map(|c| c.weight)
-            .fold(0.0, f64::max);
+        let keep_at_least = comps.iter().map(|c| c.weight).fold(0.0, f64::max);
         comps.retain(|c| c.weight >= p.min_weight * total || c.weight == keep_at_least);
     }
     ch.pruned += before - comps.len();
@@ -578,7 +621,10 @@ mod tests {
         assert!(wrap_pi(m.theta).abs() < 1e-12, "{m:?}");
         assert!((m.rho - 1.1).abs() < 1e-12);
         // within variance 0.01 plus between-spread 0.1^2
-        assert!((m.cov[0] - 0.02).abs() < 1e-12 && (m.cov[3] - 0.02).abs() < 1e-12, "{m:?}");
+        assert!(
+            (m.cov[0] - 0.02).abs() < 1e-12 && (m.cov[3] - 0.02).abs() < 1e-12,
+            "{m:?}"
+        );
         assert!((m.cov[1] + 0.01).abs() < 1e-12, "{m:?}");
         assert!((m.weight - 1.0).abs() < 1e-12);
     }

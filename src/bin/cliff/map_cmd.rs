@@ -6,7 +6,7 @@ use anyhow::{Context, Result};
 use clap::Subcommand;
 use cliff::map::CliffMap;
 
-use crate::map_build_cmd::{BuildArgs, ScoreArgs};
+use crate::map_build_cmd::{BuildArgs, ScoreArgs, UpdateArgs};
 
 /// Map subcommands.
 #[derive(Subcommand)]
@@ -39,6 +39,13 @@ pub enum MapCommand {
     /// Example: cliff map score --map atc-train.csv --tracks ../shared/data/atc/dev/*.csv
     /// --format atc --json
     Score(ScoreArgs),
+    /// Update a map in place from a new batch of trajectories (online learning with
+    /// decay, per-component sufficient statistics, new components for what the map
+    /// does not explain, near-duplicates merged), and write the result.
+    ///
+    /// Example: cliff map update --map hour9.csv --count-scale 1523 --tracks
+    /// ../shared/data/atc/train/atc-1024-10_train.csv --format atc --out hour10.csv
+    Update(UpdateArgs),
 }
 
 /// Load the map at `path`, or the built-in demo scene when `None`.
@@ -84,6 +91,7 @@ pub fn run(cmd: MapCommand) -> Result<()> {
         }
         MapCommand::Build(a) => crate::map_build_cmd::build(a),
         MapCommand::Score(a) => crate::map_build_cmd::score(a),
+        MapCommand::Update(a) => crate::map_build_cmd::update(a),
         MapCommand::Convert { input, output } => {
             let m = load_map(Some(&input))?;
             m.save(&output)

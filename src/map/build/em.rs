@@ -61,7 +61,11 @@ const NEAR_SINGULAR: f64 = 1e-10;
 /// Fit the mixture to `samples` ((theta in `[0, 2pi)`, rho)) starting from `comps`.
 /// Components whose covariance degenerates are dropped; the weights of the rest are
 /// renormalised.
-pub fn em(samples: &[[f64; 2]], mut comps: Vec<EmComponent>, p: &EmParams) -> (Vec<EmComponent>, EmOutcome) {
+pub fn em(
+    samples: &[[f64; 2]],
+    mut comps: Vec<EmComponent>,
+    p: &EmParams,
+) -> (Vec<EmComponent>, EmOutcome) {
     let n = samples.len() as f64;
     let mut prev_ll = f64::NEG_INFINITY;
     let mut out = EmOutcome {
@@ -143,7 +147,7 @@ pub fn em(samples: &[[f64; 2]], mut comps: Vec<EmComponent>, p: &EmParams) -> (V
         let mut next = Vec::with_capacity(comps.len());
         for (c, a) in comps.iter().zip(&acc) {
             let r = a[0];
-            if !(r > 0.0) {
+            if r.is_nan() || r <= 0.0 {
                 continue;
             }
             let (mt, mr) = (a[1] / r, a[2] / r);
@@ -154,7 +158,9 @@ pub fn em(samples: &[[f64; 2]], mut comps: Vec<EmComponent>, p: &EmParams) -> (V
                 a[5] / r - mr * mr,
             ];
             cov[2] = cov[1];
-            if !(cov[0] >= MIN_VARIANCE && cov[3] >= MIN_VARIANCE) || cov.iter().any(|v| !v.is_finite()) {
+            if !(cov[0] >= MIN_VARIANCE && cov[3] >= MIN_VARIANCE)
+                || cov.iter().any(|v| !v.is_finite())
+            {
                 continue;
             }
             if eig_sym(cov).1 < NEAR_SINGULAR {
@@ -188,7 +194,14 @@ mod tests {
     fn one_component_converges_to_sample_moments() {
         // A symmetric cross of samples around (0.02, 1.0): mean and covariance known.
         let mut x = Vec::new();
-        for &(dt, dr) in &[(0.1, 0.0), (-0.1, 0.0), (0.0, 0.2), (0.0, -0.2), (0.05, 0.1), (-0.05, -0.1)] {
+        for &(dt, dr) in &[
+            (0.1, 0.0),
+            (-0.1, 0.0),
+            (0.0, 0.2),
+            (0.0, -0.2),
+            (0.05, 0.1),
+            (-0.05, -0.1),
+        ] {
             x.push([wrap_2pi(0.02 + dt), 1.0 + dr]);
         }
         let init = vec![EmComponent {
@@ -200,11 +213,19 @@ mod tests {
         assert_eq!(c.len(), 1);
         assert!(o.iterations >= 2);
         let c = c[0];
-        assert!((c.mu[0] - 0.02).abs() < 1e-9 && (c.mu[1] - 1.0).abs() < 1e-9, "{c:?}");
+        assert!(
+            (c.mu[0] - 0.02).abs() < 1e-9 && (c.mu[1] - 1.0).abs() < 1e-9,
+            "{c:?}"
+        );
         let vt = (0.01 * 2.0 + 0.0025 * 2.0) / 6.0;
         let vr = (0.04 * 2.0 + 0.01 * 2.0) / 6.0;
         let ctr = (0.005 * 2.0) / 6.0;
-        assert!((c.cov[0] - vt).abs() < 1e-9 && (c.cov[3] - vr).abs() < 1e-9 && (c.cov[1] - ctr).abs() < 1e-9, "{c:?}");
+        assert!(
+            (c.cov[0] - vt).abs() < 1e-9
+                && (c.cov[3] - vr).abs() < 1e-9
+                && (c.cov[1] - ctr).abs() < 1e-9,
+            "{c:?}"
+        );
         assert!((c.weight - 1.0).abs() < 1e-12);
     }
 
@@ -216,8 +237,16 @@ mod tests {
             x.push([1.0 + 0.01 * i as f64, 1.0 + 0.013 * (i % 7) as f64]);
         }
         let init = vec![
-            EmComponent { mu: [3.0, 0.5], cov: [0.001, 0.0, 0.0, 0.001], weight: 0.5 },
-            EmComponent { mu: [1.1, 1.0], cov: [0.01, 0.0, 0.0, 0.01], weight: 0.5 },
+            EmComponent {
+                mu: [3.0, 0.5],
+                cov: [0.001, 0.0, 0.0, 0.001],
+                weight: 0.5,
+            },
+            EmComponent {
+                mu: [1.1, 1.0],
+                cov: [0.01, 0.0, 0.0, 0.01],
+                weight: 0.5,
+            },
         ];
         let (c, _) = em(&x, init, &EmParams::default());
         assert_eq!(c.len(), 1, "{c:?}");

@@ -60,7 +60,11 @@ impl Bandwidth {
         let st = super::stats::CircularLinearStats::of(samples.iter());
         let n = samples.len() as f64;
         let rule = |v: f64| {
-            let v = if v.is_finite() { v.clamp(0.0, MAX_VAR_THETA) } else { MAX_VAR_THETA };
+            let v = if v.is_finite() {
+                v.clamp(0.0, MAX_VAR_THETA)
+            } else {
+                MAX_VAR_THETA
+            };
             let mut h = (4.0 * v.powi(5) / (3.0 * n)).powf(0.2);
             if h < f64::EPSILON {
                 h += 1e-10;
@@ -317,9 +321,12 @@ impl<'a> Field<'a> {
         if cells > MAX_FIELD_CELLS {
             return None;
         }
-        let dc = (((WINDOW_SD * h.theta.sqrt()) / bins.wt).ceil() as i64 + 1).min(bins.ncols as i64 / 2);
+        let dc =
+            (((WINDOW_SD * h.theta.sqrt()) / bins.wt).ceil() as i64 + 1).min(bins.ncols as i64 / 2);
         let dr = ((WINDOW_SD * h.rho.sqrt()) / bins.wr).ceil() as i64 + 1;
-        let kt = (0..=dc).map(|d| kernel_theta(d as f64 * bins.wt, h.theta)).collect();
+        let kt = (0..=dc)
+            .map(|d| kernel_theta(d as f64 * bins.wt, h.theta))
+            .collect();
         let kr: Vec<f64> = (0..=dr)
             .map(|d| {
                 let x = d as f64 * bins.wr;
@@ -406,7 +413,10 @@ impl<'a> Field<'a> {
         let d = self.cell(c0 + 1, r0 + 1);
         let mut f = [0.0; 4];
         for k in 0..4 {
-            f[k] = (1.0 - fu) * (1.0 - fv) * a[k] + fu * (1.0 - fv) * b[k] + (1.0 - fu) * fv * c[k] + fu * fv * d[k];
+            f[k] = (1.0 - fu) * (1.0 - fv) * a[k]
+                + fu * (1.0 - fv) * b[k]
+                + (1.0 - fu) * fv * c[k]
+                + fu * fv * d[k];
         }
         f
     }
@@ -432,7 +442,7 @@ fn seek_binned(
                     Some(field) => field.at(y),
                     None => bins.direct(y, h, &mut ranges),
                 };
-                if !(f[0] > 0.0) {
+                if f[0].is_nan() || f[0] <= 0.0 {
                     break;
                 }
                 let new = [wrap_2pi(f[1].atan2(f[2])), f[3] / f[0]];
@@ -471,13 +481,16 @@ pub fn group(seekers: &Seekers, h: Bandwidth) -> (Vec<Centre>, Vec<u32>) {
     let mut of_seeker = Vec::with_capacity(seekers.points.len());
     for (p, &m) in seekers.points.iter().zip(&seekers.counts) {
         let mf = m as f64;
-        let found = centres
-            .iter()
-            .position(|c| wrap_pi(p[0] - c.point[0]).abs() <= tt && (p[1] - c.point[1]).abs() <= tr);
+        let found = centres.iter().position(|c| {
+            wrap_pi(p[0] - c.point[0]).abs() <= tt && (p[1] - c.point[1]).abs() <= tr
+        });
         let j = match found {
             Some(j) => j,
             None => {
-                centres.push(Centre { point: *p, members: 0 });
+                centres.push(Centre {
+                    point: *p,
+                    members: 0,
+                });
                 sums.push([0.0; 3]);
                 centres.len() - 1
             }
@@ -498,12 +511,16 @@ pub fn group(seekers: &Seekers, h: Bandwidth) -> (Vec<Centre>, Vec<u32>) {
 mod tests {
     use super::*;
     use rand::SeedableRng;
-    use std::f64::consts::PI;
     use rand_distr::{Distribution, Normal};
+    use std::f64::consts::PI;
 
     fn blobs(n: usize, seed: u64) -> Vec<[f64; 2]> {
         let mut rng = rand_xoshiro::Xoshiro256PlusPlus::seed_from_u64(seed);
-        let centres = [(0.05, 1.2, 0.15, 0.1), (PI, 0.8, 0.2, 0.08), (1.5, 1.5, 0.1, 0.15)];
+        let centres = [
+            (0.05, 1.2, 0.15, 0.1),
+            (PI, 0.8, 0.2, 0.08),
+            (1.5, 1.5, 0.1, 0.15),
+        ];
         (0..n)
             .map(|i| {
                 let (t, r, st, sr) = centres[i % 3];
@@ -546,8 +563,14 @@ mod tests {
             let h = Bandwidth::of(&x);
             for (p, q) in a.iter().zip(&b) {
                 // Same mode within a small share of the kernel width.
-                assert!(wrap_pi(p.point[0] - q.point[0]).abs() < 0.05 * h.theta.sqrt(), "{p:?} {q:?}");
-                assert!((p.point[1] - q.point[1]).abs() < 0.05 * h.rho.sqrt(), "{p:?} {q:?}");
+                assert!(
+                    wrap_pi(p.point[0] - q.point[0]).abs() < 0.05 * h.theta.sqrt(),
+                    "{p:?} {q:?}"
+                );
+                assert!(
+                    (p.point[1] - q.point[1]).abs() < 0.05 * h.rho.sqrt(),
+                    "{p:?} {q:?}"
+                );
                 let d = p.members.abs_diff(q.members);
                 assert!(d * 50 <= n, "members {p:?} {q:?}");
             }
@@ -557,10 +580,18 @@ mod tests {
     #[test]
     fn mode_straddling_zero_is_one_mode() {
         // Two flows only: the kernel (wide, by the original's rule) keeps them apart.
-        let x: Vec<_> = blobs(450, 5).into_iter().enumerate().filter(|(i, _)| i % 3 != 2).map(|(_, x)| x).collect();
+        let x: Vec<_> = blobs(450, 5)
+            .into_iter()
+            .enumerate()
+            .filter(|(i, _)| i % 3 != 2)
+            .map(|(_, x)| x)
+            .collect();
         let c = big_centres(&x, MeanShift::default());
         assert_eq!(c.len(), 2, "{c:?}");
-        let near_zero: Vec<_> = c.iter().filter(|c| wrap_pi(c.point[0]).abs() < 0.3).collect();
+        let near_zero: Vec<_> = c
+            .iter()
+            .filter(|c| wrap_pi(c.point[0]).abs() < 0.3)
+            .collect();
         assert_eq!(near_zero.len(), 1, "{c:?}");
         assert!(wrap_pi(near_zero[0].point[0] - 0.05).abs() < 0.05);
     }
@@ -572,6 +603,10 @@ mod tests {
         let h = Bandwidth::of(&x);
         let s = seek_modes(&x, h, MeanShift::default(), 100);
         assert_eq!(s.of_sample.len(), 3);
-        assert!(s.points.iter().all(|p| p[0].is_finite() && p[1].is_finite()));
+        assert!(
+            s.points
+                .iter()
+                .all(|p| p[0].is_finite() && p[1].is_finite())
+        );
     }
 }

@@ -207,7 +207,11 @@ impl Nodes {
 const MAX_CELLS: usize = 50_000_000;
 
 /// Split observations to the nodes of `lattice` within `radius` (inclusive).
-pub(crate) fn split(obs: &[Observation], lattice: Lattice, radius: f64) -> Result<Nodes, BuildError> {
+pub(crate) fn split(
+    obs: &[Observation],
+    lattice: Lattice,
+    radius: f64,
+) -> Result<Nodes, BuildError> {
     if obs.is_empty() {
         return Ok(Nodes {
             starts: vec![0],
@@ -262,7 +266,9 @@ pub(crate) fn split(obs: &[Observation], lattice: Lattice, radius: f64) -> Resul
     let mut at = 0usize;
     for c in 0..nx * ny {
         if total[c] > 0 {
-            nodes.keys.push(((c / ny) as i64 + lo.0, (c % ny) as i64 + lo.1));
+            nodes
+                .keys
+                .push(((c / ny) as i64 + lo.0, (c % ny) as i64 + lo.1));
             nodes.starts.push(at);
             nodes.totals.push(total[c] as usize);
             fill[c] = at;
@@ -312,7 +318,9 @@ impl FitParams {
         if let MeanShift::Binned { theta_bin, rho_bin } = self.mean_shift
             && !(theta_bin > 0.0 && rho_bin > 0.0 && theta_bin.is_finite() && rho_bin.is_finite())
         {
-            return bad(format!("bin sizes {theta_bin} rad x {rho_bin} m/s must be positive"));
+            return bad(format!(
+                "bin sizes {theta_bin} rad x {rho_bin} m/s must be positive"
+            ));
         }
         if self.mean_shift_max_iter == 0 || self.em.max_iter == 0 {
             return bad("iteration caps must be at least 1".into());
@@ -373,7 +381,12 @@ pub fn initial_components(samples: &[[f64; 2]], p: &FitParams) -> Vec<EmComponen
         let st = CircularLinearStats::of(members.iter().map(|&i| &samples[i]));
         let cov = st.cov();
         let det = cov[0] * cov[3] - cov[1] * cov[2];
-        if cov.iter().any(|v| !v.is_finite()) || cov[0] <= 1e-10 || cov[3] <= 1e-10 || !(det > 0.0) {
+        if cov.iter().any(|v| !v.is_finite())
+            || cov[0] <= 1e-10
+            || cov[3] <= 1e-10
+            || det.is_nan()
+            || det <= 0.0
+        {
             continue;
         }
         let decade_below = |v: f64| 10f64.powf(v.log10().floor() - 1.0);
@@ -433,7 +446,9 @@ pub fn build_map_with_progress(
     let nodes = split(obs, lattice, params.radius)?;
     let fit = &params.fit;
     let count = |i: usize| nodes.starts[i + 1] - nodes.starts[i];
-    let fitted = (0..nodes.len()).filter(|&i| count(i) >= fit.min_samples).count();
+    let fitted = (0..nodes.len())
+        .filter(|&i| count(i) >= fit.min_samples)
+        .count();
     let mixtures: Vec<Vec<Component>> = (0..nodes.len())
         .into_par_iter()
         .map(|i| {

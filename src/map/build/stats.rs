@@ -194,7 +194,10 @@ mod tests {
     fn floor_keeps_eigenvectors() {
         let c = floor_eigenvalues([1.0, 0.999, 0.999, 1.0], 0.01);
         let (l1, l2) = eig_sym(c);
-        assert!((l1 - 1.999).abs() < 1e-9 && (l2 - 0.01).abs() < 1e-9, "{l1} {l2}");
+        assert!(
+            (l1 - 1.999).abs() < 1e-9 && (l2 - 0.01).abs() < 1e-9,
+            "{l1} {l2}"
+        );
         assert!((c[1] - c[2]).abs() < 1e-15);
         let same = [0.5, 0.1, 0.1, 0.2];
         assert_eq!(floor_eigenvalues(same, 1e-4), same);
