@@ -1,7 +1,7 @@
 //! EM for the semi-wrapped Gaussian mixture of one node (section 4 of
 //! `cliffmap-building.md`), in log space.
 
-use std::f64::consts::TAU;
+use std::f64::consts::{PI, TAU};
 
 use super::stats::{Gauss2, eig_sym};
 use crate::map::wrap_2pi;
@@ -53,6 +53,42 @@ pub struct EmOutcome {
 /// resolution of the sum and are skipped.
 const SKIP_LOG: f64 = -40.0;
 
+/// `exp(a)` for `a <= 0` (the scaled terms of a log-sum-exp), branch-free so that
+/// loops over samples vectorise: `a = k ln 2 + r` with `|r| <= ln 2 / 2`, a degree-11
+/// Taylor polynomial for `exp(r)` (relative error below 1e-14) and `2^k` built in the
+/// exponent bits.
+#[inline(always)]
+pub(crate) fn exp_neg(a: f64) -> f64 {
+    const LOG2E: f64 = std::f64::consts::LOG2_E;
+    const LN2_HI: f64 = 6.931_471_803_691_238e-1;
+    const LN2_LO: f64 = 1.908_214_929_270_587_7e-10;
+    // 1.5 * 2^52: adding it rounds to an integer held in the low mantissa bits.
+    const SHIFT: f64 = 6_755_399_441_055_744.0;
+    let a = a.max(-700.0);
+    let t = a * LOG2E + SHIFT;
+    let k = t - SHIFT;
+    let r = (a - k * LN2_HI) - k * LN2_LO;
+    let mut p = 1.0 / 39_916_800.0;
+    for c in [
+        1.0 / 3_628_800.0,
+        1.0 / 362_880.0,
+        1.0 / 40_320.0,
+        1.0 / 5_040.0,
+        1.0 / 720.0,
+        1.0 / 120.0,
+        1.0 / 24.0,
+        1.0 / 6.0,
+        0.5,
+        1.0,
+        1.0,
+    ] {
+        p = p * r + c;
+    }
+    // k sits in the low bits of t as a two's-complement offset from SHIFT's bits.
+    let ki = t.to_bits().wrapping_sub(SHIFT.to_bits()) as i64;
+    p * f64::from_bits(((ki + 1023) as u64) << 52)
+}
+
 /// A variance below this drops the component.
 const MIN_VARIANCE: f64 = 1e-9;
 /// An eigenvalue below this adds `1e-10 I` to the covariance.
@@ -72,62 +108,114 @@ pub fn em(
         iterations: 0,
         log_likelihood: f64::NEG_INFINITY,
     };
-    let mut gauss: Vec<Gauss2> = Vec::with_capacity(comps.len());
-    let mut terms: Vec<f64> = Vec::with_capacity(3 * comps.len());
+    let ns = samples.len();
+    // Component-major buffers, reused across iterations: for component j and sample i,
+    // `near[j * ns + i]` is the direction offset of the nearest winding (|d| <= pi) and
+    // `e[(3 j + w) * ns + i]` the log term, then the scaled density, of winding w
+    // (0: nearest, 1: the next one on the other side, 2: the far one).
+    let mut near: Vec<f64> = Vec::new();
+    let mut e: Vec<f64> = Vec::new();
+    let mut mx = vec![0.0f64; ns];
+    let mut inv_s = vec![0.0f64; ns];
+    let mut live: Vec<bool> = Vec::new();
     // Per component: R, sum r d (2), sum r d d^T (xx, xy, yy).
     let mut acc: Vec<[f64; 6]> = Vec::with_capacity(comps.len());
     while !comps.is_empty() && out.iterations < p.max_iter {
-        gauss.clear();
-        for c in &comps {
-            match Gauss2::new(c.mu, c.cov, c.weight) {
-                Some(g) => gauss.push(g),
-                None => {
-                    // Unusable covariance: give it no density.
-                    gauss.push(Gauss2 {
-                        mu: c.mu,
-                        inv: [0.0; 3],
-                        log_norm: f64::NEG_INFINITY,
-                    })
-                }
+        let nj = comps.len();
+        near.resize(nj * ns, 0.0);
+        e.resize(3 * nj * ns, 0.0);
+        mx.fill(f64::NEG_INFINITY);
+        for (j, c) in comps.iter().enumerate() {
+            let near = &mut near[j * ns..(j + 1) * ns];
+            let (e0, rest) = e[3 * j * ns..3 * (j + 1) * ns].split_at_mut(ns);
+            let (e1, e2) = rest.split_at_mut(ns);
+            let Some(g) = Gauss2::new(c.mu, c.cov, c.weight) else {
+                // Unusable covariance: no density.
+                e0.fill(f64::NEG_INFINITY);
+                e1.fill(f64::NEG_INFINITY);
+                e2.fill(f64::NEG_INFINITY);
+                continue;
+            };
+            let [ia, ib, ic] = g.inv;
+            for i in 0..ns {
+                let x = samples[i];
+                let d0 = x[0] - g.mu[0];
+                // Nearest winding, then the one across, then the far one.
+                let d = if d0 > PI {
+                    d0 - TAU
+                } else if d0 < -PI {
+                    d0 + TAU
+                } else {
+                    d0
+                };
+                let side = if d >= 0.0 { -TAU } else { TAU };
+                let dr = x[1] - g.mu[1];
+                let qr = ic * dr * dr;
+                let u = 2.0 * ib * dr;
+                let q = |t: f64| t * (ia * t + u) + qr;
+                let v0 = g.log_norm - 0.5 * q(d);
+                let v1 = g.log_norm - 0.5 * q(d + side);
+                let v2 = g.log_norm - 0.5 * q(d - side);
+                near[i] = d;
+                e0[i] = v0;
+                e1[i] = v1;
+                e2[i] = v2;
+                mx[i] = mx[i].max(v0).max(v1).max(v2);
             }
         }
-        acc.clear();
-        acc.resize(comps.len(), [0.0; 6]);
-        let mut ll = 0.0;
-        for x in samples {
-            terms.clear();
-            let mut m = f64::NEG_INFINITY;
-            for g in &gauss {
-                let d0 = x[0] - g.mu[0];
-                let dr = x[1] - g.mu[1];
-                for dt in [d0 + TAU, d0, d0 - TAU] {
-                    let v = g.log_norm - 0.5 * g.maha(dt, dr);
-                    m = m.max(v);
-                    terms.push(v);
-                }
-            }
-            if m == f64::NEG_INFINITY || m.is_nan() {
-                // All-zero density: the sample gets no weight.
+        inv_s.fill(0.0);
+        live.clear();
+        for col in e.chunks_exact_mut(ns) {
+            // Windings that never come near the best term of any sample (the far
+            // windings of all but wide components) are skipped whole.
+            let top = col
+                .iter()
+                .zip(&mx)
+                .map(|(v, m)| v - m)
+                .fold(f64::NEG_INFINITY, f64::max);
+            let is_live = top > SKIP_LOG;
+            live.push(is_live);
+            if !is_live {
                 continue;
             }
-            let mut s = 0.0;
-            for t in terms.iter_mut() {
-                let a = *t - m;
-                *t = if a > SKIP_LOG { a.exp() } else { 0.0 };
-                s += *t;
+            for i in 0..ns {
+                let a = col[i] - mx[i];
+                let v = if a > SKIP_LOG { exp_neg(a) } else { 0.0 };
+                col[i] = v;
+                inv_s[i] += v;
             }
-            ll += m + s.ln();
-            let inv_s = 1.0 / s;
-            for (j, g) in gauss.iter().enumerate() {
-                let d0 = x[0] - g.mu[0];
-                let dr = x[1] - g.mu[1];
-                for (k, dt) in [d0 + TAU, d0, d0 - TAU].into_iter().enumerate() {
-                    let e = terms[3 * j + k];
-                    if e == 0.0 {
-                        continue;
-                    }
-                    let r = e * inv_s;
-                    let a = &mut acc[j];
+        }
+        let mut ll = 0.0;
+        for i in 0..ns {
+            let m = mx[i];
+            if m == f64::NEG_INFINITY || m.is_nan() {
+                // All-zero density: the sample gets no weight.
+                inv_s[i] = 0.0;
+                continue;
+            }
+            ll += m + inv_s[i].ln();
+            inv_s[i] = 1.0 / inv_s[i];
+        }
+        acc.clear();
+        acc.resize(nj, [0.0; 6]);
+        for (j, c) in comps.iter().enumerate() {
+            let near = &near[j * ns..(j + 1) * ns];
+            let mut a = [0.0f64; 6];
+            for w in 0..3 {
+                if !live[3 * j + w] {
+                    continue;
+                }
+                let col = &e[(3 * j + w) * ns..(3 * j + w + 1) * ns];
+                for i in 0..ns {
+                    let r = col[i] * inv_s[i];
+                    let d = near[i];
+                    let side = if d >= 0.0 { -TAU } else { TAU };
+                    let dt = match w {
+                        0 => d,
+                        1 => d + side,
+                        _ => d - side,
+                    };
+                    let dr = samples[i][1] - c.mu[1];
                     a[0] += r;
                     a[1] += r * dt;
                     a[2] += r * dr;
@@ -136,6 +224,10 @@ pub fn em(
                     a[5] += r * dr * dr;
                 }
             }
+            // Offsets were taken from the nearest winding of each sample; the M-step
+            // below adds them to the old mean, which is the same as the original's
+            // sum over x - k e.
+            acc[j] = a;
         }
         out.iterations += 1;
         out.log_likelihood = ll;
@@ -189,6 +281,19 @@ pub fn em(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn exp_neg_matches_std_exp() {
+        let mut worst: f64 = 0.0;
+        for i in 0..=400_000 {
+            let a = -40.0 * i as f64 / 400_000.0;
+            let (x, y) = (exp_neg(a), a.exp());
+            worst = worst.max(((x - y) / y).abs());
+        }
+        assert!(worst < 1e-14, "{worst}");
+        assert_eq!(exp_neg(0.0), 1.0);
+        assert!(exp_neg(-800.0) < 1e-300);
+    }
 
     #[test]
     fn one_component_converges_to_sample_moments() {
