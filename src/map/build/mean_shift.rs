@@ -297,45 +297,73 @@ impl Bins {
 /// The kernel-smoothed sums `(N, S, C, P)` on the lattice of bin centres, computed on
 /// first use; seekers interpolate them bilinearly. On the lattice the kernel depends
 /// only on whole column and row offsets, so it comes from two small tables, and it is
-/// separable: each occupied column is first smoothed along the speed (`profile`), and
-/// a cell sums the profiles of the columns in reach.
-struct Field<'a> {
-    bins: &'a Bins,
-    kt: Vec<f64>,
+/// separable: the bins are first smoothed along the speed into a dense
+/// (field, row, column) profile, and a cell is then a dot product of the direction
+/// kernel with a contiguous run of one profile row (wrapping around the circle).
+struct Field {
+    ncols: usize,
+    wt: f64,
+    wr: f64,
     row0: i64,
     nrows: i64,
-    /// Per occupied column, per row: speed-smoothed sums.
-    profile: Vec<[f64; 4]>,
+    /// Direction kernel by column offset `-dl ..= dh`.
+    kt: Vec<f64>,
+    dl: usize,
+    /// Speed-smoothed sums, `[field][row][column]`.
+    profile: Vec<f64>,
     cells: Vec<[f64; 4]>,
     done: Vec<bool>,
-    ranges: Vec<(u32, u32)>,
 }
 
-impl<'a> Field<'a> {
-    fn new(bins: &'a Bins, h: Bandwidth) -> Option<Self> {
+#[inline]
+fn dot(a: &[f64], b: &[f64]) -> f64 {
+    // Four partial sums: lets the compiler vectorise the reduction.
+    let mut acc = [0.0f64; 4];
+    let (ca, cb) = (a.chunks_exact(4), b.chunks_exact(4));
+    let (ra, rb) = (ca.remainder(), cb.remainder());
+    for (x, y) in ca.zip(cb) {
+        for k in 0..4 {
+            acc[k] += x[k] * y[k];
+        }
+    }
+    let mut s = (acc[0] + acc[1]) + (acc[2] + acc[3]);
+    for (x, y) in ra.iter().zip(rb) {
+        s += x * y;
+    }
+    s
+}
+
+impl Field {
+    fn new(bins: &Bins, h: Bandwidth) -> Option<Self> {
         let min_row = *bins.row.iter().min()? as i64;
         let max_row = *bins.row.iter().max()? as i64;
         let row0 = min_row - 1;
         let nrows = max_row - min_row + 3;
-        let cells = (bins.ncols as usize).checked_mul(nrows as usize)?;
+        let ncols = bins.ncols as usize;
+        let cells = ncols.checked_mul(nrows as usize)?;
         if cells > MAX_FIELD_CELLS {
             return None;
         }
-        let dc =
-            (((WINDOW_SD * h.theta.sqrt()) / bins.wt).ceil() as i64 + 1).min(bins.ncols as i64 / 2);
-        let dr = ((WINDOW_SD * h.rho.sqrt()) / bins.wr).ceil() as i64 + 1;
-        let kt = (0..=dc)
-            .map(|d| kernel_theta(d as f64 * bins.wt, h.theta))
+        let dc = ((WINDOW_SD * h.theta.sqrt()) / bins.wt).ceil() as usize + 1;
+        let (dl, dh) = if 2 * dc + 1 < ncols {
+            (dc, dc)
+        } else {
+            (ncols / 2, ncols - 1 - ncols / 2)
+        };
+        let kt = (0..=dl + dh)
+            .map(|i| kernel_theta((i as f64 - dl as f64) * bins.wt, h.theta))
             .collect();
+        let dr = ((WINDOW_SD * h.rho.sqrt()) / bins.wr).ceil() as i64 + 1;
         let kr: Vec<f64> = (0..=dr)
             .map(|d| {
                 let x = d as f64 * bins.wr;
                 (-0.5 * x * x / h.rho).exp()
             })
             .collect();
-        let mut profile = vec![[0.0; 4]; bins.cols.len() * nrows as usize];
+        let plane = nrows as usize * ncols;
+        let mut profile = vec![0.0; 4 * plane];
         for ci in 0..bins.cols.len() {
-            let prof = &mut profile[ci * nrows as usize..(ci + 1) * nrows as usize];
+            let col = bins.cols[ci] as usize;
             for bi in bins.col_start[ci] as usize..bins.col_start[ci + 1] as usize {
                 let row = bins.row[bi] as i64;
                 let f = [bins.n[bi], bins.s[bi], bins.c[bi], bins.p[bi]];
@@ -343,67 +371,59 @@ impl<'a> Field<'a> {
                 let hi = (row + dr).min(row0 + nrows - 1);
                 for r in lo..=hi {
                     let w = kr[(r - row).unsigned_abs() as usize];
-                    let g = &mut prof[(r - row0) as usize];
-                    for k in 0..4 {
-                        g[k] += w * f[k];
+                    let at = (r - row0) as usize * ncols + col;
+                    for (k, v) in f.iter().enumerate() {
+                        profile[k * plane + at] += w * v;
                     }
                 }
             }
         }
         Some(Self {
-            bins,
-            kt,
+            ncols,
+            wt: bins.wt,
+            wr: bins.wr,
             row0,
             nrows,
+            kt,
+            dl,
             profile,
             cells: vec![[0.0; 4]; cells],
             done: vec![false; cells],
-            ranges: Vec::with_capacity(2),
         })
     }
 
     fn cell(&mut self, c: i64, r: i64) -> [f64; 4] {
-        let n = self.bins.ncols as i64;
-        let c = c.rem_euclid(n);
+        let n = self.ncols as i64;
+        let c = c.rem_euclid(n) as usize;
         let r = r.clamp(self.row0, self.row0 + self.nrows - 1);
-        let i = (c * self.nrows + (r - self.row0)) as usize;
+        let ri = (r - self.row0) as usize;
+        let i = c * self.nrows as usize + ri;
         if !self.done[i] {
-            self.cells[i] = self.compute(c, r);
+            self.cells[i] = self.compute(c, ri);
             self.done[i] = true;
         }
         self.cells[i]
     }
 
-    fn compute(&mut self, c: i64, r: i64) -> [f64; 4] {
-        let b = self.bins;
-        let n = b.ncols as i64;
-        let dc = self.kt.len() as i64 - 1;
-        b.column_ranges(c, dc, &mut self.ranges);
-        let ri = (r - self.row0) as usize;
-        let nrows = self.nrows as usize;
+    fn compute(&self, c: usize, ri: usize) -> [f64; 4] {
+        let n = self.ncols;
+        let len = self.kt.len();
+        let start = (c + n - self.dl % n) % n;
+        let first = len.min(n - start);
+        let plane = self.nrows as usize * n;
         let mut f = [0.0; 4];
-        for &(lo, hi) in &self.ranges {
-            let first = b.cols.partition_point(|&x| x < lo);
-            for ci in first..b.cols.len() {
-                let col = b.cols[ci];
-                if col > hi {
-                    break;
-                }
-                let d = (col as i64 - c).rem_euclid(n);
-                let kt = self.kt[d.min(n - d) as usize];
-                let g = &self.profile[ci * nrows + ri];
-                for k in 0..4 {
-                    f[k] += kt * g[k];
-                }
-            }
+        for (k, v) in f.iter_mut().enumerate() {
+            let row = &self.profile[k * plane + ri * n..k * plane + (ri + 1) * n];
+            *v = dot(&self.kt[..first], &row[start..start + first])
+                + dot(&self.kt[first..], &row[..len - first]);
         }
         f
     }
 
     /// Bilinear interpolation of the sums at `y`.
     fn at(&mut self, y: [f64; 2]) -> [f64; 4] {
-        let u = y[0] / self.bins.wt - 0.5;
-        let v = y[1] / self.bins.wr - 0.5;
+        let u = y[0] / self.wt - 0.5;
+        let v = y[1] / self.wr - 0.5;
         let (c0, r0) = (u.floor(), v.floor());
         let (fu, fv) = (u - c0, v - r0);
         let (c0, r0) = (c0 as i64, r0 as i64);
