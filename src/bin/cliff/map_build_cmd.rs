@@ -189,9 +189,9 @@ pub struct ScoreArgs {
     #[command(flatten)]
     pub input: TrackArgs,
     /// An observation is scored at the nearest location strictly within this
-    /// distance (m); use the map's sampling radius (1 for ATC, 0.5 for THÖR).
-    #[arg(long, default_value_t = 1.0)]
-    pub radius: f64,
+    /// distance (m) [default: the map's grid step, 1 m for ATC, 0.5 m for THÖR].
+    #[arg(long)]
+    pub radius: Option<f64>,
     /// Print one JSON object instead of a table.
     #[arg(long)]
     pub json: bool,
@@ -202,7 +202,7 @@ pub fn score(a: ScoreArgs) -> Result<()> {
     let map = CliffMap::load(&a.map).with_context(|| format!("loading map {}", a.map.display()))?;
     let obs = a.input.observations()?;
     let params = ScoreParams {
-        radius: a.radius,
+        radius: a.radius.unwrap_or(map.grid().step()),
         ..ScoreParams::default()
     };
     let r = score_map(&map, &obs, &params)?;

@@ -9,7 +9,7 @@
 //! kernel weight is taken at the bin centre, and bins are kept at most 1/8 of the
 //! kernel's standard deviation wide so that this costs no accuracy.
 
-use std::f64::consts::TAU;
+use std::f64::consts::{PI, TAU};
 
 use super::stats::wrap_pi;
 use crate::map::wrap_2pi;
@@ -105,7 +105,27 @@ fn kernel_theta(d: f64, h: f64) -> f64 {
 
 #[inline]
 fn converged(old: [f64; 2], new: [f64; 2], h: Bandwidth) -> bool {
-    wrap_pi(new[0] - old[0]).abs() < 1e-3 * h.theta && (new[1] - old[1]).abs() < 1e-3 * h.rho
+    near_wrap_pi(new[0] - old[0]).abs() < 1e-3 * h.theta && (new[1] - old[1]).abs() < 1e-3 * h.rho
+}
+
+/// [`wrap_pi`] for a difference of two angles in `[0, 2pi)` (no division).
+#[inline(always)]
+fn near_wrap_pi(d: f64) -> f64 {
+    if d >= PI {
+        d - TAU
+    } else if d < -PI {
+        d + TAU
+    } else {
+        d
+    }
+}
+
+/// `atan2(s, c)` in `[0, 2pi)`.
+#[inline(always)]
+fn direction(s: f64, c: f64) -> f64 {
+    let t = s.atan2(c);
+    let t = if t < 0.0 { t + TAU } else { t };
+    if t >= TAU { 0.0 } else { t }
 }
 
 /// Run mean shift on `samples` ((theta in `[0, 2pi)`, rho)) with kernel `h`, at most
@@ -315,7 +335,7 @@ struct Field {
     done: Vec<bool>,
 }
 
-#[inline]
+#[inline(always)]
 fn dot(a: &[f64], b: &[f64]) -> f64 {
     // Four partial sums: lets the compiler vectorise the reduction.
     let mut acc = [0.0f64; 4];
@@ -392,6 +412,7 @@ impl Field {
         })
     }
 
+    #[inline(always)]
     fn cell(&mut self, c: i64, r: i64) -> [f64; 4] {
         let n = self.ncols as i64;
         let c = c.rem_euclid(n) as usize;
@@ -405,6 +426,7 @@ impl Field {
         self.cells[i]
     }
 
+    #[inline(always)]
     fn compute(&self, c: usize, ri: usize) -> [f64; 4] {
         let n = self.ncols;
         let len = self.kt.len();
@@ -421,6 +443,7 @@ impl Field {
     }
 
     /// Bilinear interpolation of the sums at `y`.
+    #[inline(always)]
     fn at(&mut self, y: [f64; 2]) -> [f64; 4] {
         let u = y[0] / self.wt - 0.5;
         let v = y[1] / self.wr - 0.5;
@@ -449,6 +472,38 @@ fn seek_binned(
     rho_bin: f64,
     max_iter: usize,
 ) -> Seekers {
+    #[cfg(target_arch = "x86_64")]
+    {
+        if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma")
+        {
+            // SAFETY: the processor supports the features the function is compiled for.
+            return unsafe { seek_binned_avx2(samples, h, theta_bin, rho_bin, max_iter) };
+        }
+    }
+    seek_binned_impl(samples, h, theta_bin, rho_bin, max_iter)
+}
+
+/// [`seek_binned_impl`] compiled for AVX2 + FMA (vector dot products, inline floor).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+fn seek_binned_avx2(
+    samples: &[[f64; 2]],
+    h: Bandwidth,
+    theta_bin: f64,
+    rho_bin: f64,
+    max_iter: usize,
+) -> Seekers {
+    seek_binned_impl(samples, h, theta_bin, rho_bin, max_iter)
+}
+
+#[inline(always)]
+fn seek_binned_impl(
+    samples: &[[f64; 2]],
+    h: Bandwidth,
+    theta_bin: f64,
+    rho_bin: f64,
+    max_iter: usize,
+) -> Seekers {
     let (bins, of_sample) = make_bins(samples, h, theta_bin, rho_bin);
     let mut field = Field::new(&bins, h);
     let mut ranges = Vec::with_capacity(2);
@@ -465,7 +520,7 @@ fn seek_binned(
                 if f[0].is_nan() || f[0] <= 0.0 {
                     break;
                 }
-                let new = [wrap_2pi(f[1].atan2(f[2])), f[3] / f[0]];
+                let new = [direction(f[1], f[2]), f[3] / f[0]];
                 let done = converged(y, new, h);
                 y = new;
                 if done {
@@ -532,7 +587,6 @@ mod tests {
     use super::*;
     use rand::SeedableRng;
     use rand_distr::{Distribution, Normal};
-    use std::f64::consts::PI;
 
     fn blobs(n: usize, seed: u64) -> Vec<[f64; 2]> {
         let mut rng = rand_xoshiro::Xoshiro256PlusPlus::seed_from_u64(seed);

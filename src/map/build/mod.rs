@@ -449,17 +449,25 @@ pub fn build_map_with_progress(
     let fitted = (0..nodes.len())
         .filter(|&i| count(i) >= fit.min_samples)
         .count();
-    let mixtures: Vec<Vec<Component>> = (0..nodes.len())
+    // Busiest nodes first (a long node started last would leave the other threads
+    // idle); results go back to node order, so the map does not depend on scheduling.
+    let mut order: Vec<usize> = (0..nodes.len())
+        .filter(|&i| count(i) >= fit.min_samples)
+        .collect();
+    order.sort_by_key(|&i| std::cmp::Reverse(count(i)));
+    let fitted_mixtures: Vec<(usize, Vec<Component>)> = order
         .into_par_iter()
+        .with_max_len(1)
         .map(|i| {
-            if count(i) < fit.min_samples {
-                return Vec::new();
-            }
             let m = fit_mixture(nodes.samples_of(i), fit);
             progress(fitted);
-            m
+            (i, m)
         })
         .collect();
+    let mut mixtures: Vec<Vec<Component>> = vec![Vec::new(); nodes.len()];
+    for (i, m) in fitted_mixtures {
+        mixtures[i] = m;
+    }
     let max_count = (0..nodes.len()).map(count).max().unwrap_or(0);
     let moving = obs.iter().filter(|o| o.rho > 0.0).count();
     let mut locations = Vec::new();
