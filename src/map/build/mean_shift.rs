@@ -652,6 +652,21 @@ mod tests {
     }
 
     #[test]
+    fn baseline_and_dispatched_seekers_agree() {
+        let x = blobs(900, 9);
+        let h = Bandwidth::of(&x);
+        let (theta_bin, rho_bin) = (2f64.to_radians(), 0.02);
+        let a = seek_binned(&x, h, theta_bin, rho_bin, 500);
+        let b = seek_binned_impl(&x, h, theta_bin, rho_bin, 500);
+        assert_eq!(a.of_sample, b.of_sample);
+        for (p, q) in a.points.iter().zip(&b.points) {
+            assert!(
+                wrap_pi(p[0] - q[0]).abs() < 1e-2 * h.theta && (p[1] - q[1]).abs() < 1e-2 * h.rho
+            );
+        }
+    }
+
+    #[test]
     fn mode_straddling_zero_is_one_mode() {
         // Two flows only: the kernel (wide, by the original's rule) keeps them apart.
         let x: Vec<_> = blobs(450, 5)
