@@ -221,8 +221,8 @@ pub fn score(a: ScoreArgs) -> Result<()> {
         println!("mean log-likelihood  {:.4}", r.mean_log_likelihood);
         println!("median               {:.4}", r.median_log_likelihood);
         println!(
-            "below {}            {:.2} %",
-            r.bad_below,
+            "{:<21}{:.2} %",
+            format!("below {}", r.bad_below),
             100.0 * r.share_below
         );
     }

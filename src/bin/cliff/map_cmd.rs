@@ -39,9 +39,11 @@ pub enum MapCommand {
     /// Example: cliff map score --map atc-train.csv --tracks ../shared/data/atc/dev/*.csv
     /// --format atc --json
     Score(ScoreArgs),
-    /// Update a map in place from a new batch of trajectories (online learning with
-    /// decay, per-component sufficient statistics, new components for what the map
-    /// does not explain, near-duplicates merged), and write the result.
+    /// Update a map with a new batch of trajectories, without the old data.
+    ///
+    /// Online learning: the map's counts decay, components are updated from their
+    /// sufficient statistics, samples the map does not explain get new components,
+    /// near-duplicates are merged. The result goes to --out.
     ///
     /// Example: cliff map update --map hour9.csv --count-scale 1523 --tracks
     /// ../shared/data/atc/train/atc-1024-10_train.csv --format atc --out hour10.csv

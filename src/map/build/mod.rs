@@ -229,8 +229,9 @@ pub(crate) fn split(
         hi.0 = hi.0.max((f.x + rr).floor() as i64);
         hi.1 = hi.1.max((f.y + rr).floor() as i64);
     }
-    let nx = (hi.0 - lo.0 + 1).max(0) as usize;
-    let ny = (hi.1 - lo.1 + 1).max(0) as usize;
+    // Saturating: absurd coordinates give an absurd grid, refused below.
+    let nx = hi.0.saturating_sub(lo.0).saturating_add(1).max(0) as usize;
+    let ny = hi.1.saturating_sub(lo.1).saturating_add(1).max(0) as usize;
     if nx.saturating_mul(ny) > MAX_CELLS {
         return Err(BuildError::InvalidParam(format!(
             "a grid of {nx} x {ny} nodes at step {s} m is too large (at most {MAX_CELLS})"
@@ -509,4 +510,51 @@ pub fn build_map_with_progress(
         totals,
         summary,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn ob(x: f64, y: f64) -> Observation {
+        Observation {
+            position: DVec2::new(x, y),
+            theta: 1.0,
+            rho: 1.0,
+        }
+    }
+
+    #[test]
+    fn split_feeds_every_node_within_the_radius() {
+        let lattice = Lattice {
+            origin: DVec2::ZERO,
+            step: 1.0,
+        };
+        let mut standing = ob(0.5, 0.0);
+        standing.rho = 0.0;
+        let nodes = split(&[ob(0.5, 0.0), standing], lattice, 1.0).unwrap();
+        // (0.5, 0) is within 1 m of (0, 0) and (1, 0); (0, 1), (1, 1) etc. are 1.118 m away.
+        assert_eq!(nodes.keys, vec![(0, 0), (1, 0)]);
+        assert_eq!(nodes.totals, vec![2, 2]);
+        assert_eq!(nodes.samples_of(0).len(), 1);
+        // Inclusive radius: a node exactly 1 m away counts.
+        let nodes = split(&[ob(0.0, 0.0)], lattice, 1.0).unwrap();
+        assert_eq!(nodes.len(), 5);
+    }
+
+    #[test]
+    fn absurd_extent_is_an_error_not_a_panic() {
+        let lattice = Lattice {
+            origin: DVec2::ZERO,
+            step: 1.0,
+        };
+        let e = split(&[ob(-1e300, 0.0), ob(1e300, 0.0)], lattice, 1.0).unwrap_err();
+        assert!(e.to_string().contains("too large"), "{e}");
+        let e = build_map(&[ob(0.0, 0.0), ob(f64::NAN, 0.0)], &BuildParams::default()).unwrap_err();
+        assert!(
+            e.to_string()
+                .contains("observation 1: position is not finite"),
+            "{e}"
+        );
+    }
 }

@@ -30,7 +30,7 @@ pub struct CircularLinearStats {
 }
 
 impl CircularLinearStats {
-    /// Statistics of the samples `(theta, rho)` picked by `take` (all when `None`).
+    /// Statistics of the samples `(theta, rho)` (at least one; two for the variances).
     pub fn of<'a>(samples: impl Iterator<Item = &'a [f64; 2]> + Clone) -> Self {
         let (mut n, mut s, mut c, mut r) = (0usize, 0.0, 0.0, 0.0);
         for x in samples.clone() {
