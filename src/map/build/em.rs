@@ -252,7 +252,7 @@ fn e_step_impl<const F: bool>(
     acc.resize(nj, [0.0; 6]);
     for (j, c) in comps.iter().enumerate() {
         let near = &b.near[j * ns..(j + 1) * ns];
-        let mut lanes = [[0.0f64; LANES]; 6];
+        let mut lanes = [[0.0f64; 6]; LANES];
         for w in 0..3 {
             if !b.live[3 * j + w] {
                 continue;
@@ -274,24 +274,22 @@ fn e_step_impl<const F: bool>(
             };
             let full = ns / LANES * LANES;
             for i0 in (0..full).step_by(LANES) {
-                for l in 0..LANES {
-                    let t = term(i0 + l);
-                    for k in 0..6 {
-                        lanes[k][l] += t[k];
+                for (l, lane) in lanes.iter_mut().enumerate() {
+                    for (a, v) in lane.iter_mut().zip(term(i0 + l)) {
+                        *a += v;
                     }
                 }
             }
             for i in full..ns {
-                let t = term(i);
-                for k in 0..6 {
-                    lanes[k][0] += t[k];
+                for (a, v) in lanes[0].iter_mut().zip(term(i)) {
+                    *a += v;
                 }
             }
         }
         // Offsets are taken from the nearest winding of each sample; the M-step adds
         // them to the old mean, which is the original's sum over x - k e.
-        for k in 0..6 {
-            acc[j][k] = (lanes[k][0] + lanes[k][1]) + (lanes[k][2] + lanes[k][3]);
+        for (k, a) in acc[j].iter_mut().enumerate() {
+            *a = (lanes[0][k] + lanes[1][k]) + (lanes[2][k] + lanes[3][k]);
         }
     }
     ll
