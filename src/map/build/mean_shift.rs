@@ -663,6 +663,23 @@ mod tests {
     }
 
     #[test]
+    fn cached_field_matches_direct_kernel_sums() {
+        let x = blobs(600, 4);
+        let h = Bandwidth::of(&x);
+        let (bins, _) = make_bins(&x, h, 2f64.to_radians(), 0.02);
+        let mut field = Field::new(&bins, h).expect("a small lattice");
+        let mut ranges = Vec::new();
+        for &y in &[[0.05, 1.2], [6.2, 1.1], [PI, 0.8], [1.5, 1.5], [2.3, 1.0]] {
+            let a = field.at(y);
+            let b = bins.direct(y, h, &mut ranges);
+            // Same weighted count and the same mean direction and speed.
+            assert!((a[0] / b[0] - 1.0).abs() < 0.01, "{y:?}: {a:?} {b:?}");
+            assert!(wrap_pi(a[1].atan2(a[2]) - b[1].atan2(b[2])).abs() < 0.01 * h.theta.sqrt());
+            assert!((a[3] / a[0] - b[3] / b[0]).abs() < 0.01 * h.rho.sqrt());
+        }
+    }
+
+    #[test]
     fn baseline_and_dispatched_seekers_agree() {
         let x = blobs(900, 9);
         let h = Bandwidth::of(&x);
