@@ -34,6 +34,13 @@ enum Command {
 }
 
 fn main() -> std::process::ExitCode {
+    // Like other Unix tools: end quietly when the reader of our output goes away
+    // (`cliff eval ... | head`) instead of panicking on a broken pipe.
+    // SAFETY: called first thing in main, before any other thread exists.
+    #[cfg(unix)]
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+    }
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Map(c) => map_cmd::run(c),
