@@ -19,6 +19,7 @@
 pub mod eval;
 pub mod map;
 pub mod motion;
+pub mod plot;
 pub mod predict;
 
 pub use glam;
