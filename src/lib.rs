@@ -20,6 +20,7 @@ pub mod eval;
 pub mod map;
 pub mod motion;
 pub mod plot;
+pub mod scene;
 pub mod predict;
 
 pub use glam;
