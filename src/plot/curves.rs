@@ -79,11 +79,22 @@ pub fn parse_summary(text: &str, file: &str) -> Result<Vec<SummaryRow>, PlotErro
         .enumerate()
         .filter(|(_, l)| !l.trim().is_empty());
     let Some((hl, header)) = lines.next() else {
-        return Err(err(1, 0, "the file is empty (expected a header row)".into()));
+        return Err(err(
+            1,
+            0,
+            "the file is empty (expected a header row)".into(),
+        ));
     };
-    let names: Vec<String> = split(header).iter().map(|n| n.to_ascii_lowercase()).collect();
+    let names: Vec<String> = split(header)
+        .iter()
+        .map(|n| n.to_ascii_lowercase())
+        .collect();
     let col = |name: &str| names.iter().position(|n| n == name);
-    let missing: Vec<&str> = NEEDED.iter().copied().filter(|n| col(n).is_none()).collect();
+    let missing: Vec<&str> = NEEDED
+        .iter()
+        .copied()
+        .filter(|n| col(n).is_none())
+        .collect();
     if !missing.is_empty() {
         return Err(err(
             hl + 1,
@@ -130,7 +141,11 @@ pub fn parse_summary(text: &str, file: &str) -> Result<Vec<SummaryRow>, PlotErro
         }
         let people = match people_col {
             Some(c) => Some(f[c].parse::<usize>().map_err(|_| {
-                err(line_no, c + 1, format!("people '{}' is not a whole number", f[c]))
+                err(
+                    line_no,
+                    c + 1,
+                    format!("people '{}' is not a whole number", f[c]),
+                )
             })?),
             None => None,
         };
@@ -238,7 +253,11 @@ pub fn curves_layout(runs: &[CurveRun], style: &CurvesStyle) -> Result<CurvesLay
         rows()
             .map(|r| {
                 let (v, sd) = m(r);
-                if style.bands && sd.is_finite() { v + sd.abs() } else { v }
+                if style.bands && sd.is_finite() {
+                    v + sd.abs()
+                } else {
+                    v
+                }
             })
             .filter(|v| v.is_finite())
             .fold(0.0f64, f64::max)
@@ -378,7 +397,10 @@ impl Painter for CurvesPainter<'_> {
                             .map(|&(x, v, sd)| (x, (v - sd.abs()).max(0.0))),
                     );
                     chart
-                        .draw_series(std::iter::once(Polygon::new(band, colour.mix(0.18).filled())))
+                        .draw_series(std::iter::once(Polygon::new(
+                            band,
+                            colour.mix(0.18).filled(),
+                        )))
                         .map_err(PlotError::draw)?;
                 }
                 chart
@@ -436,7 +458,9 @@ mod tests {
         let h = "method,horizon,ade,fde,ade_sd,fde_sd\n";
         assert!(e("").contains("empty"));
         assert!(e(h).contains("no rows"));
-        assert!(e(&format!("{h}cliff,1,x,1,1,1\n")).contains("s.csv:2: column 3: 'x' is not a number"));
+        assert!(
+            e(&format!("{h}cliff,1,x,1,1,1\n")).contains("s.csv:2: column 3: 'x' is not a number")
+        );
         assert!(e(&format!("{h}cliff,-1,1,1,1,1\n")).contains("column 2: horizon"));
         assert!(e(&format!("{h}cliff,1,1,1,1\n")).contains("s.csv:2: column 0: 5 fields"));
         // extra columns, other order, NaN for a horizon nobody reached
@@ -462,8 +486,14 @@ mod tests {
             people: None,
         };
         let runs = vec![
-            CurveRun { label: "a".into(), rows: vec![row("cliff", 1.0, 1.0, 0.5), row("cvm", 2.0, 2.0, 1.0)] },
-            CurveRun { label: "b".into(), rows: vec![row("cliff", 4.0, 0.5, 0.0)] },
+            CurveRun {
+                label: "a".into(),
+                rows: vec![row("cliff", 1.0, 1.0, 0.5), row("cvm", 2.0, 2.0, 1.0)],
+            },
+            CurveRun {
+                label: "b".into(),
+                rows: vec![row("cliff", 4.0, 0.5, 0.0)],
+            },
         ];
         let l = curves_layout(&runs, &CurvesStyle::default()).unwrap();
         assert_eq!(l.ade.extent.x1, 4.0);

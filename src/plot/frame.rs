@@ -272,7 +272,11 @@ mod tests {
     #[test]
     fn extent_parse_errors_name_the_problem() {
         let e = |s: &str| s.parse::<Extent>().unwrap_err().to_string();
-        assert!(e("1,2,3").contains("expected four numbers"), "{}", e("1,2,3"));
+        assert!(
+            e("1,2,3").contains("expected four numbers"),
+            "{}",
+            e("1,2,3")
+        );
         assert!(e("1,x,3,4").contains("'x' (number 2) is not a number"));
         assert!(e("2,1,3,4").contains("X0 must be less than X1"));
         assert!(e("1,2,4,4").contains("Y0 must be less than Y1"));
@@ -288,7 +292,10 @@ mod tests {
         assert_eq!(f.size.0, 1000);
         let ratio = f.area.height() as f64 / f.area.width() as f64;
         assert!((ratio - 60.0 / 140.0).abs() < 0.01);
-        assert_eq!(f.to_pixel(DVec2::new(-60.0, 20.0)), (f.area.left, f.area.top));
+        assert_eq!(
+            f.to_pixel(DVec2::new(-60.0, 20.0)),
+            (f.area.left, f.area.top)
+        );
         assert_eq!(
             f.to_pixel(DVec2::new(80.0, -40.0)),
             (f.area.right - 1, f.area.bottom - 1)

@@ -12,7 +12,8 @@ use super::{Extent, Floorplan, Frame, ImageFormat, PlotError, direction_colour, 
 use crate::map::CliffMap;
 
 /// The chart type of map-like pictures: metres on both axes.
-pub(crate) type WorldChart<'a, DB> = ChartContext<'a, DB, Cartesian2d<RangedCoordf64, RangedCoordf64>>;
+pub(crate) type WorldChart<'a, DB> =
+    ChartContext<'a, DB, Cartesian2d<RangedCoordf64, RangedCoordf64>>;
 
 /// How [`plot_map`] draws a map.
 #[derive(Debug, Clone, PartialEq)]
@@ -87,7 +88,10 @@ impl MapStyle {
     fn check(&self) -> Result<(), PlotError> {
         let bad = |m: String| Err(PlotError::Invalid(m));
         if self.width < 200 {
-            return bad(format!("width {} is too small (at least 200 pixels)", self.width));
+            return bad(format!(
+                "width {} is too small (at least 200 pixels)",
+                self.width
+            ));
         }
         if let Some(s) = self.arrow_seconds
             && !(s.is_finite() && s > 0.0)
@@ -237,7 +241,9 @@ pub(crate) fn world_chart<'a, DB: DrawingBackend>(
 }
 
 /// Axes with ticks and metre labels, no grid lines.
-pub(crate) fn draw_axes<DB: DrawingBackend>(chart: &mut WorldChart<'_, DB>) -> Result<(), PlotError> {
+pub(crate) fn draw_axes<DB: DrawingBackend>(
+    chart: &mut WorldChart<'_, DB>,
+) -> Result<(), PlotError> {
     chart
         .configure_mesh()
         .disable_mesh()
@@ -271,7 +277,8 @@ pub(crate) fn draw_arrows<DB: DrawingBackend>(
     let stroke = if longest_px >= 14.0 { 2 } else { 1 };
     for loc in map.locations() {
         let p = loc.position;
-        if !(ext.x0 - 1.0..=ext.x1 + 1.0).contains(&p.x) || !(ext.y0 - 1.0..=ext.y1 + 1.0).contains(&p.y)
+        if !(ext.x0 - 1.0..=ext.x1 + 1.0).contains(&p.x)
+            || !(ext.y0 - 1.0..=ext.y1 + 1.0).contains(&p.y)
         {
             continue;
         }
@@ -316,8 +323,16 @@ pub(crate) fn draw_colour_wheel<DB: DrawingBackend>(
     frame: &Frame,
 ) -> Result<(), PlotError> {
     let r = 26.0;
-    let (cx, cy) = (frame.area.right as f64 - r - 22.0, frame.area.top as f64 + r + 22.0);
-    let pt = |a: f64, rad: f64| ((cx + rad * a.cos()).round() as i32, (cy - rad * a.sin()).round() as i32);
+    let (cx, cy) = (
+        frame.area.right as f64 - r - 22.0,
+        frame.area.top as f64 + r + 22.0,
+    );
+    let pt = |a: f64, rad: f64| {
+        (
+            (cx + rad * a.cos()).round() as i32,
+            (cy - rad * a.sin()).round() as i32,
+        )
+    };
     root.draw(&Circle::new(
         (cx as i32, cy as i32),
         (r + 20.0) as i32,
@@ -366,9 +381,18 @@ mod tests {
     fn bad_styles_are_refused() {
         let map = CliffMap::demo();
         for style in [
-            MapStyle { width: 10, ..MapStyle::default() },
-            MapStyle { arrow_seconds: Some(-1.0), ..MapStyle::default() },
-            MapStyle { opacity: 2.0, ..MapStyle::default() },
+            MapStyle {
+                width: 10,
+                ..MapStyle::default()
+            },
+            MapStyle {
+                arrow_seconds: Some(-1.0),
+                ..MapStyle::default()
+            },
+            MapStyle {
+                opacity: 2.0,
+                ..MapStyle::default()
+            },
         ] {
             assert!(matches!(
                 plot_map_to(&map, None, &style, ImageFormat::Png),

@@ -11,6 +11,7 @@ use super::render::{Background, Painter, render};
 use super::{
     Extent, Floorplan, Frame, ImageFormat, OBSERVED, PlotError, SAMPLE, TRUTH, write_file,
 };
+use crate::eval::protocol::Case;
 use crate::map::CliffMap;
 use crate::predict::TrajectoryBatch;
 
@@ -66,6 +67,40 @@ impl PersonPrediction {
             truth,
             samples,
         }
+    }
+
+    /// An evaluation case and agent `agent`'s samples: the observed rows up to the
+    /// start (green), the ground-truth rows after the start up to the case's horizon
+    /// (red) and the samples (blue).
+    ///
+    /// ```
+    /// use cliff::eval::protocol::{prepare, Protocol, Settings};
+    /// use cliff::map::CliffMap;
+    /// use cliff::plot::PersonPrediction;
+    /// use cliff::predict::{predict, Params, TrajectoryBatch};
+    /// use cliff::scene::{demo_tracks, SceneOptions};
+    /// let tracks = demo_tracks(&SceneOptions::default());
+    /// let settings = Settings { protocol: Protocol::Seconds, ..Settings::default() };
+    /// let case = prepare(&tracks[0], &settings).unwrap();
+    /// let mut batch = TrajectoryBatch::new();
+    /// let params = Params { horizon: case.steps as f64 * settings.dt, ..Params::default() };
+    /// predict(&CliffMap::demo(), &[case.start], &params, &mut batch).unwrap();
+    /// let p = PersonPrediction::from_case(&case, &batch, 0);
+    /// assert_eq!(p.start, case.start.position);
+    /// assert_eq!(*p.observed.last().unwrap(), case.start.position);
+    /// assert!(!p.truth.is_empty() && p.samples.len() == params.k);
+    /// ```
+    pub fn from_case(case: &Case, batch: &TrajectoryBatch, agent: usize) -> Self {
+        let mut observed: Vec<DVec2> = case.observed.iter().map(|r| r.position).collect();
+        observed.push(case.start.position);
+        let end = case.start.time + case.horizon + 1e-6;
+        let truth = case
+            .future
+            .iter()
+            .filter(|r| r.t > case.start.time + 1e-9 && r.t <= end)
+            .map(|r| r.position)
+            .collect();
+        Self::from_batch(observed, truth, batch, agent)
     }
 
     fn points(&self) -> impl Iterator<Item = DVec2> + '_ {
@@ -169,7 +204,8 @@ pub fn plot_predictions_to(
             style.width
         )));
     }
-    if !(0.0..=1.0).contains(&style.arrow_opacity) || !(0.0..=1.0).contains(&style.floorplan_strength)
+    if !(0.0..=1.0).contains(&style.arrow_opacity)
+        || !(0.0..=1.0).contains(&style.floorplan_strength)
     {
         return Err(PlotError::Invalid(
             "arrow opacity and floor plan strength must be within 0..1".into(),
@@ -206,12 +242,21 @@ fn rgb((r, g, b): (u8, u8, u8)) -> RGBColor {
 
 impl Painter for PredictPainter<'_> {
     fn paint<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Result<(), PlotError> {
-        let k = self.people.iter().map(|p| p.samples.len()).max().unwrap_or(0);
+        let k = self
+            .people
+            .iter()
+            .map(|p| p.samples.len())
+            .max()
+            .unwrap_or(0);
         let title = self.style.title.clone().unwrap_or_else(|| {
             format!(
                 "CLiFF-LHMP: {} {}, {k} samples each",
                 self.people.len(),
-                if self.people.len() == 1 { "person" } else { "people" }
+                if self.people.len() == 1 {
+                    "person"
+                } else {
+                    "people"
+                }
             )
         });
         draw_title(root, &title)?;
@@ -269,8 +314,11 @@ impl Painter for PredictPainter<'_> {
                     .map_err(err)?;
             }
             let observed: Vec<(f64, f64)> = person.observed.iter().map(|&p| xy(p)).collect();
-            area.draw(&PathElement::new(observed.clone(), rgb(OBSERVED).stroke_width(3)))
-                .map_err(err)?;
+            area.draw(&PathElement::new(
+                observed.clone(),
+                rgb(OBSERVED).stroke_width(3),
+            ))
+            .map_err(err)?;
             for &p in &observed {
                 area.draw(&Circle::new(p, 3, rgb(OBSERVED).filled()))
                     .map_err(err)?;

@@ -91,8 +91,12 @@ impl Floorplan {
     /// `extent`. For maps of a closed space, such as the built-in demo hall, this is
     /// its walkable floor.
     pub fn from_map(map: &CliffMap, extent: Extent, pixels_per_metre: f64) -> Self {
-        let w = (extent.width() * pixels_per_metre).round().clamp(1.0, 4096.0) as u32;
-        let h = (extent.height() * pixels_per_metre).round().clamp(1.0, 4096.0) as u32;
+        let w = (extent.width() * pixels_per_metre)
+            .round()
+            .clamp(1.0, 4096.0) as u32;
+        let h = (extent.height() * pixels_per_metre)
+            .round()
+            .clamp(1.0, 4096.0) as u32;
         let step = map.grid().step();
         let half = 0.5 * step;
         let image = RgbImage::from_fn(w, h, |x, y| {
@@ -160,7 +164,8 @@ impl Background {
             let (w, h) = ((bx - ax + 1).max(1), (by - ay + 1).max(1));
             // Guard against absurd zoom (a tiny view of a huge plan).
             if (w as i64) * (h as i64) <= 64_000_000 {
-                let scaled = image::imageops::resize(&fp.image, w as u32, h as u32, FilterType::Triangle);
+                let scaled =
+                    image::imageops::resize(&fp.image, w as u32, h as u32, FilterType::Triangle);
                 let s = strength.clamp(0.0, 1.0);
                 let area = frame.area;
                 for y in area.top.max(ay)..area.bottom.min(ay + h) {
@@ -265,8 +270,12 @@ pub(crate) fn render(
 /// Encode RGB bytes as a compressed PNG.
 pub(crate) fn encode_png(rgb: &[u8], (w, h): (u32, u32)) -> Result<Vec<u8>, PlotError> {
     let mut out = Vec::new();
-    PngEncoder::new_with_quality(Cursor::new(&mut out), CompressionType::Best, PngFilter::Adaptive)
-        .write_image(rgb, w, h, image::ExtendedColorType::Rgb8)
-        .map_err(PlotError::draw)?;
+    PngEncoder::new_with_quality(
+        Cursor::new(&mut out),
+        CompressionType::Best,
+        PngFilter::Adaptive,
+    )
+    .write_image(rgb, w, h, image::ExtendedColorType::Rgb8)
+    .map_err(PlotError::draw)?;
     Ok(out)
 }
