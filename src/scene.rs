@@ -277,7 +277,12 @@ mod tests {
         let map = CliffMap::demo();
         let mut turned = 0;
         for t in &tracks {
-            assert!(t.rows.len() >= 15, "person {} has {} rows", t.id, t.rows.len());
+            assert!(
+                t.rows.len() >= 15,
+                "person {} has {} rows",
+                t.id,
+                t.rows.len()
+            );
             for r in &t.rows {
                 // inside a corridor (half width 3 m, plus the walkers' wobble)
                 assert!(
@@ -297,7 +302,11 @@ mod tests {
                 turned += 1;
             }
             // times increase by dt
-            assert!(t.rows.windows(2).all(|w| (w[1].t - w[0].t - 0.4).abs() < 1e-9));
+            assert!(
+                t.rows
+                    .windows(2)
+                    .all(|w| (w[1].t - w[0].t - 0.4).abs() < 1e-9)
+            );
         }
         let share = turned as f64 / tracks.len() as f64;
         assert!((0.2..0.5).contains(&share), "turning share {share}");
