@@ -266,10 +266,15 @@ fn run_predict(a: PredictPlotArgs) -> Result<()> {
         .as_ref()
         .map_or("the demo walkers".to_string(), |p| p.display().to_string());
     let settings = a.prediction.settings();
-    let track = tracks
-        .iter()
-        .find(|t| t.id == a.person)
-        .with_context(|| format!("person {} is not in {source}", a.person))?;
+    let track = tracks.iter().find(|t| t.id == a.person).with_context(|| {
+        let ids: Vec<String> = tracks.iter().take(12).map(|t| t.id.to_string()).collect();
+        format!(
+            "person {} is not in {source} ({} people; ids include {})",
+            a.person,
+            tracks.len(),
+            ids.join(", ")
+        )
+    })?;
     let case = prepare(track, &settings).with_context(|| {
         let usable: Vec<String> = tracks
             .iter()
