@@ -129,7 +129,7 @@ pub fn parse_summary(text: &str, file: &str) -> Result<Vec<SummaryRow>, PlotErro
             Ok(v)
         };
         let horizon = num(idx[1])?;
-        if !(horizon >= 0.0) {
+        if horizon.is_nan() || horizon < 0.0 {
             return Err(err(
                 line_no,
                 idx[1] + 1,

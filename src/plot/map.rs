@@ -122,12 +122,17 @@ pub(crate) fn map_extent(map: &CliffMap) -> Extent {
 /// Draw `map` as a picture and write it to `out` (PNG or SVG, by extension). Returns
 /// the frame: where each world point was drawn.
 ///
-/// ```no_run
+/// ```
 /// use cliff::map::CliffMap;
-/// use cliff::plot::{plot_map, Extent, Floorplan, MapStyle};
+/// use cliff::plot::{plot_map, Floorplan, MapStyle};
+/// // THÖR1's map over its floor plan (the data sit beside the repository)
 /// let map = CliffMap::load("../shared/data/thor1/cliffmap.csv")?;
 /// let plan = Floorplan::load("../shared/data/thor1/floorplan.png", "-11,12,-10,13.5".parse()?)?;
-/// plot_map(&map, Some(&plan), &MapStyle::default(), "thor1-map.png".as_ref())?;
+/// let out = std::env::temp_dir().join("cliff-doc-thor1-map.svg");
+/// let frame = plot_map(&map, Some(&plan), &MapStyle::default(), &out)?;
+/// assert_eq!(frame.size.0, 1000);
+/// assert!(std::fs::read_to_string(&out)?.starts_with("<svg"));
+/// # std::fs::remove_file(&out)?;
 /// # Ok::<(), Box<dyn std::error::Error>>(())
 /// ```
 pub fn plot_map(

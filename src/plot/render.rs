@@ -59,6 +59,15 @@ pub struct Floorplan {
 
 impl Floorplan {
     /// Read a PNG or JPEG floor plan covering `extent`.
+    ///
+    /// ```
+    /// use cliff::plot::Floorplan;
+    /// let plan = Floorplan::load("../shared/data/atc/floorplan.jpg", "-60,80,-40,20".parse()?)?;
+    /// assert_eq!(plan.image().dimensions(), (2800, 1200));
+    /// let missing = Floorplan::load("no-such-plan.png", "0,1,0,1".parse()?).unwrap_err();
+    /// assert!(missing.to_string().contains("no-such-plan.png"));
+    /// # Ok::<(), cliff::plot::PlotError>(())
+    /// ```
     pub fn load(path: impl AsRef<Path>, extent: Extent) -> Result<Self, PlotError> {
         let path = path.as_ref();
         let bad = |message: String| PlotError::Floorplan {
@@ -90,6 +99,16 @@ impl Floorplan {
     /// step (in x and in y), dark grey elsewhere, drawn at `pixels_per_metre` over
     /// `extent`. For maps of a closed space, such as the built-in demo hall, this is
     /// its walkable floor.
+    ///
+    /// ```
+    /// use cliff::{map::CliffMap, plot::{Extent, Floorplan}};
+    /// let plan = Floorplan::from_map(&CliffMap::demo(), Extent::new(-16.0, 16.0, -11.0, 11.0)?, 10.0);
+    /// assert_eq!(plan.image().dimensions(), (320, 220));
+    /// // the crossing is floor, the corner of the hall is not
+    /// assert_eq!(plan.image().get_pixel(160, 110).0, [255, 255, 255]);
+    /// assert_eq!(plan.image().get_pixel(5, 5).0, [60, 60, 60]);
+    /// # Ok::<(), cliff::plot::PlotError>(())
+    /// ```
     pub fn from_map(map: &CliffMap, extent: Extent, pixels_per_metre: f64) -> Self {
         let w = (extent.width() * pixels_per_metre)
             .round()
