@@ -669,6 +669,78 @@ fn curves_from_a_real_eval_summary() {
             r.horizon
         );
     }
+
+    // The spread over people: means and bands from per_person.csv, computed here by
+    // hand from the file.
+    let text = std::fs::read_to_string(eval_dir.join("per_person.csv")).unwrap();
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let col = |n: &str| header.iter().position(|h| *h == n).unwrap();
+    let (cm, ch, ca) = (col("method"), col("horizon"), col("ade"));
+    let ades: Vec<f64> = lines
+        .map(|l| l.split(',').collect::<Vec<_>>())
+        .filter(|f| f[cm] == "cliff" && f[ch] == "6.0")
+        .map(|f| f[ca].parse().unwrap())
+        .collect();
+    assert!(ades.len() >= 10);
+    let mean = ades.iter().sum::<f64>() / ades.len() as f64;
+    let sd = (ades.iter().map(|a| (a - mean) * (a - mean)).sum::<f64>() / ades.len() as f64).sqrt();
+    assert!(sd > 0.05, "people differ: sd {sd}");
+    let out = dir.join("people.png");
+    let stdout = ok(&[
+        "plot",
+        "curves",
+        "--summary",
+        s(&summary),
+        "--spread",
+        "people",
+        "--out",
+        s(&out),
+    ]);
+    assert!(stdout.contains("cliff, cvm"), "{stdout}");
+    let img = decode(&out);
+    let rows = cliff::plot::read_per_person_spread(&eval_dir.join("per_person.csv")).unwrap();
+    let layout = curves_layout(
+        &[CurveRun {
+            label: "eval".into(),
+            rows,
+        }],
+        &CurvesStyle::default(),
+    )
+    .unwrap();
+    let blue = layout.series[0].1;
+    assert!(has(
+        &img,
+        layout.ade.to_pixel(DVec2::new(6.0, mean)),
+        2,
+        blue
+    ));
+    // inside the band one sd wide, above the line: a tint of the line's hue
+    let inside = px(&img, layout.ade.to_pixel(DVec2::new(6.0, mean + 0.7 * sd))).unwrap();
+    let (h, sat) = hue_saturation(inside);
+    assert!(
+        hue_distance(h, hue_saturation(blue).0) < 15.0 && sat > 0.05 && inside != blue,
+        "{inside:?}"
+    );
+    // a summary without its per_person.csv
+    let lonely = write_summary(
+        &dir.join("lonely"),
+        &std::fs::read_to_string(&summary).unwrap(),
+    );
+    let e = fails(&[
+        "plot",
+        "curves",
+        "--summary",
+        s(&lonely),
+        "--spread",
+        "people",
+        "--out",
+        s(&out),
+    ]);
+    assert!(
+        e.contains("per_person.csv") && e.contains("--spread people"),
+        "{e}"
+    );
 }
 
 #[test]

@@ -24,8 +24,9 @@ pub struct SummaryRow {
     pub ade_sd: f64,
     /// Standard deviation of the FDE over people (m).
     pub fde_sd: f64,
-    /// People evaluated at this horizon, when the file has the column.
-    pub people: Option<usize>,
+    /// People evaluated at this horizon (a mean over seeds), when the file has the
+    /// column.
+    pub people: Option<f64>,
 }
 
 /// The summary of one evaluation run, with the label it gets in the legend.
@@ -58,111 +59,224 @@ pub fn read_summary(path: &Path) -> Result<Vec<SummaryRow>, PlotError> {
 /// let text = "method,horizon,people,ade,fde,min_ade,min_fde,ade_sd,fde_sd\n\
 ///             cliff,1.0,10,0.3,0.5,0.1,0.2,0.1,0.2\n";
 /// let rows = parse_summary(text, "summary.csv").unwrap();
-/// assert_eq!((rows[0].method.as_str(), rows[0].horizon, rows[0].people), ("cliff", 1.0, Some(10)));
+/// assert_eq!((rows[0].method.as_str(), rows[0].horizon, rows[0].people), ("cliff", 1.0, Some(10.0)));
 /// let err = parse_summary("method,ade\ncliff,1\n", "s.csv").unwrap_err().to_string();
 /// assert!(err.contains("s.csv:1") && err.contains("horizon"), "{err}");
 /// ```
 pub fn parse_summary(text: &str, file: &str) -> Result<Vec<SummaryRow>, PlotError> {
-    let err = |line: usize, column: usize, message: String| PlotError::Summary {
-        file: file.to_string(),
-        line,
-        column,
-        message,
-    };
-    let split = |l: &str| -> Vec<String> {
-        l.split(',')
-            .map(|f| f.trim().trim_matches('"').to_string())
-            .collect()
-    };
-    let mut lines = text
-        .lines()
-        .enumerate()
-        .filter(|(_, l)| !l.trim().is_empty());
-    let Some((hl, header)) = lines.next() else {
-        return Err(err(
-            1,
-            0,
-            "the file is empty (expected a header row)".into(),
-        ));
-    };
-    let names: Vec<String> = split(header)
-        .iter()
-        .map(|n| n.to_ascii_lowercase())
-        .collect();
-    let col = |name: &str| names.iter().position(|n| n == name);
-    let missing: Vec<&str> = NEEDED
-        .iter()
-        .copied()
-        .filter(|n| col(n).is_none())
-        .collect();
-    if !missing.is_empty() {
-        return Err(err(
-            hl + 1,
-            0,
-            format!(
-                "header lacks column(s) {} (found: {})",
-                missing.join(", "),
-                names.join(", ")
-            ),
-        ));
-    }
-    let idx: Vec<usize> = NEEDED.iter().map(|n| col(n).unwrap_or(0)).collect();
-    let people_col = col("people");
-    let mut rows = Vec::new();
-    for (ln, line) in lines {
-        let line_no = ln + 1;
-        let f = split(line);
-        if f.len() != names.len() {
-            return Err(err(
-                line_no,
-                0,
-                format!("{} fields, the header has {}", f.len(), names.len()),
-            ));
-        }
-        let num = |c: usize| -> Result<f64, PlotError> {
-            let v: f64 = f[c]
-                .parse()
-                .map_err(|_| err(line_no, c + 1, format!("'{}' is not a number", f[c])))?;
-            if v.is_infinite() {
-                return Err(err(line_no, c + 1, format!("'{}' is not finite", f[c])));
-            }
-            Ok(v)
-        };
-        let horizon = num(idx[1])?;
-        if horizon.is_nan() || horizon < 0.0 {
-            return Err(err(
-                line_no,
-                idx[1] + 1,
-                format!("horizon '{}' is not a non-negative number", f[idx[1]]),
-            ));
-        }
-        if f[idx[0]].is_empty() {
-            return Err(err(line_no, idx[0] + 1, "empty method name".into()));
-        }
-        let people = match people_col {
-            Some(c) => Some(f[c].parse::<usize>().map_err(|_| {
-                err(
-                    line_no,
-                    c + 1,
-                    format!("people '{}' is not a whole number", f[c]),
-                )
-            })?),
-            None => None,
-        };
+    let table = Table::parse(text, file, &NEEDED)?;
+    let people_col = table.col("people");
+    let mut rows = Vec::with_capacity(table.rows.len());
+    for r in 0..table.rows.len() {
         rows.push(SummaryRow {
-            method: f[idx[0]].clone(),
-            horizon,
-            ade: num(idx[2])?,
-            fde: num(idx[3])?,
-            ade_sd: num(idx[4])?,
-            fde_sd: num(idx[5])?,
-            people,
+            method: table.method(r)?,
+            horizon: table.horizon(r)?,
+            ade: table.num(r, "ade")?,
+            fde: table.num(r, "fde")?,
+            ade_sd: table.num(r, "ade_sd")?,
+            fde_sd: table.num(r, "fde_sd")?,
+            people: match people_col {
+                Some(_) => Some(table.num(r, "people")?),
+                None => None,
+            },
         });
     }
+    Ok(rows)
+}
+
+/// Read a `per_person.csv` written by `cliff eval` and summarise it per method and
+/// horizon with the mean and the standard deviation over people (the spread the
+/// paper's figures show), rather than over seeds as in `summary.csv`.
+pub fn read_per_person_spread(path: &Path) -> Result<Vec<SummaryRow>, PlotError> {
+    let text = std::fs::read_to_string(path).map_err(|source| PlotError::Io {
+        file: path.to_path_buf(),
+        source,
+    })?;
+    parse_per_person_spread(&text, &path.display().to_string())
+}
+
+/// Parse per-person text (columns `method, horizon, ade, fde` by name, one row per
+/// person, method and horizon) into one row per method and horizon: the mean over
+/// people and the population standard deviation over people; see
+/// [`read_per_person_spread`].
+///
+/// ```
+/// use cliff::plot::parse_per_person_spread;
+/// let text = "person_id,method,horizon,ade,fde\n1,cliff,1.0,1.0,2.0\n2,cliff,1.0,3.0,2.0\n";
+/// let rows = parse_per_person_spread(text, "per_person.csv").unwrap();
+/// assert_eq!(rows.len(), 1);
+/// assert_eq!((rows[0].ade, rows[0].ade_sd, rows[0].fde_sd, rows[0].people), (2.0, 1.0, 0.0, Some(2.0)));
+/// ```
+pub fn parse_per_person_spread(text: &str, file: &str) -> Result<Vec<SummaryRow>, PlotError> {
+    let table = Table::parse(text, file, &["method", "horizon", "ade", "fde"])?;
+    // (method, horizon in micro-seconds) -> (n, sum, sum of squares) of ade and fde
+    let mut groups: Vec<((String, i64), [f64; 5])> = Vec::new();
+    for r in 0..table.rows.len() {
+        let key = (table.method(r)?, (table.horizon(r)? * 1e6).round() as i64);
+        let (ade, fde) = (table.num(r, "ade")?, table.num(r, "fde")?);
+        if !(ade.is_finite() && fde.is_finite()) {
+            continue;
+        }
+        let acc = match groups.iter_mut().find(|(k, _)| *k == key) {
+            Some((_, acc)) => acc,
+            None => {
+                groups.push((key, [0.0; 5]));
+                &mut groups.last_mut().expect("just pushed").1
+            }
+        };
+        acc[0] += 1.0;
+        acc[1] += ade;
+        acc[2] += ade * ade;
+        acc[3] += fde;
+        acc[4] += fde * fde;
+    }
+    let mut rows: Vec<SummaryRow> = groups
+        .into_iter()
+        .map(|((method, h), a)| {
+            let n = a[0];
+            let (ade, fde) = (a[1] / n, a[3] / n);
+            SummaryRow {
+                method,
+                horizon: h as f64 / 1e6,
+                ade,
+                fde,
+                ade_sd: (a[2] / n - ade * ade).max(0.0).sqrt(),
+                fde_sd: (a[4] / n - fde * fde).max(0.0).sqrt(),
+                people: Some(n),
+            }
+        })
+        .collect();
+    // methods in order of first appearance (stable), horizons ascending
+    rows.sort_by(|a, b| a.horizon.total_cmp(&b.horizon));
     if rows.is_empty() {
-        return Err(err(hl + 1, 0, "no rows after the header".into()));
+        return Err(PlotError::Summary {
+            file: file.to_string(),
+            line: 1,
+            column: 0,
+            message: "no row with finite errors".into(),
+        });
     }
     Ok(rows)
+}
+
+/// A CSV table with a header row, read by column name; errors name file, line, column.
+struct Table {
+    file: String,
+    names: Vec<String>,
+    /// (1-based line, fields)
+    rows: Vec<(usize, Vec<String>)>,
+}
+
+impl Table {
+    fn parse(text: &str, file: &str, needed: &[&str]) -> Result<Self, PlotError> {
+        let err = |line: usize, message: String| PlotError::Summary {
+            file: file.to_string(),
+            line,
+            column: 0,
+            message,
+        };
+        let split = |l: &str| -> Vec<String> {
+            l.split(',')
+                .map(|f| f.trim().trim_matches('"').to_string())
+                .collect()
+        };
+        let mut lines = text
+            .lines()
+            .enumerate()
+            .filter(|(_, l)| !l.trim().is_empty());
+        let Some((hl, header)) = lines.next() else {
+            return Err(err(1, "the file is empty (expected a header row)".into()));
+        };
+        let names: Vec<String> = split(header)
+            .iter()
+            .map(|n| n.to_ascii_lowercase())
+            .collect();
+        let missing: Vec<&str> = needed
+            .iter()
+            .copied()
+            .filter(|n| !names.iter().any(|m| m == n))
+            .collect();
+        if !missing.is_empty() {
+            return Err(err(
+                hl + 1,
+                format!(
+                    "header lacks column(s) {} (found: {})",
+                    missing.join(", "),
+                    names.join(", ")
+                ),
+            ));
+        }
+        let mut rows = Vec::new();
+        for (ln, line) in lines {
+            let f = split(line);
+            if f.len() != names.len() {
+                return Err(err(
+                    ln + 1,
+                    format!("{} fields, the header has {}", f.len(), names.len()),
+                ));
+            }
+            rows.push((ln + 1, f));
+        }
+        if rows.is_empty() {
+            return Err(err(hl + 1, "no rows after the header".into()));
+        }
+        Ok(Table {
+            file: file.to_string(),
+            names,
+            rows,
+        })
+    }
+
+    fn col(&self, name: &str) -> Option<usize> {
+        self.names.iter().position(|n| n == name)
+    }
+
+    fn err(&self, r: usize, c: usize, message: String) -> PlotError {
+        PlotError::Summary {
+            file: self.file.clone(),
+            line: self.rows[r].0,
+            column: c + 1,
+            message,
+        }
+    }
+
+    /// A number (NaN allowed: a horizon nobody reached; infinities refused).
+    fn num(&self, r: usize, name: &str) -> Result<f64, PlotError> {
+        let c = self.col(name).expect("checked at parse");
+        let f = &self.rows[r].1[c];
+        let v: f64 = f
+            .parse()
+            .map_err(|_| self.err(r, c, format!("'{f}' is not a number")))?;
+        if v.is_infinite() {
+            return Err(self.err(r, c, format!("'{f}' is not finite")));
+        }
+        Ok(v)
+    }
+
+    fn horizon(&self, r: usize) -> Result<f64, PlotError> {
+        let h = self.num(r, "horizon")?;
+        if h.is_nan() || h < 0.0 {
+            let c = self.col("horizon").expect("checked at parse");
+            return Err(self.err(
+                r,
+                c,
+                format!(
+                    "horizon '{}' is not a non-negative number",
+                    self.rows[r].1[c]
+                ),
+            ));
+        }
+        Ok(h)
+    }
+
+    fn method(&self, r: usize) -> Result<String, PlotError> {
+        let c = self.col("method").expect("checked at parse");
+        let m = &self.rows[r].1[c];
+        if m.is_empty() {
+            return Err(self.err(r, c, "empty method name".into()));
+        }
+        Ok(m.clone())
+    }
 }
 
 /// How [`plot_curves`] draws.
@@ -374,21 +488,30 @@ impl Painter for CurvesPainter<'_> {
                 .axis_desc_style(("sans-serif", 14))
                 .draw()
                 .map_err(PlotError::draw)?;
-            for (i, (run, method)) in series.iter().enumerate() {
-                let (label, (r, g, b)) = &self.layout.series[i];
-                let colour = RGBColor(*r, *g, *b);
-                let mut pts: Vec<(f64, f64, f64)> = self.runs[*run]
-                    .rows
-                    .iter()
-                    .filter(|row| &row.method == method)
-                    .map(|row| {
-                        let (v, sd) = pick.of(row);
-                        (row.horizon, v, sd)
-                    })
-                    .filter(|(_, v, _)| v.is_finite())
-                    .collect();
-                pts.sort_by(|a, b| a.0.total_cmp(&b.0));
-                if self.style.bands && pts.len() > 1 {
+            let points: Vec<Vec<(f64, f64, f64)>> = series
+                .iter()
+                .map(|(run, method)| {
+                    let mut pts: Vec<(f64, f64, f64)> = self.runs[*run]
+                        .rows
+                        .iter()
+                        .filter(|row| &row.method == method)
+                        .map(|row| {
+                            let (v, sd) = pick.of(row);
+                            (row.horizon, v, sd)
+                        })
+                        .filter(|(_, v, _)| v.is_finite())
+                        .collect();
+                    pts.sort_by(|a, b| a.0.total_cmp(&b.0));
+                    pts
+                })
+                .collect();
+            let colour = |i: usize| {
+                let (r, g, b) = self.layout.series[i].1;
+                RGBColor(r, g, b)
+            };
+            // All bands first, then all lines, so that no band veils a line.
+            if self.style.bands {
+                for (i, pts) in points.iter().enumerate().filter(|(_, p)| p.len() > 1) {
                     let mut band: Vec<(f64, f64)> =
                         pts.iter().map(|&(x, v, sd)| (x, v + sd.abs())).collect();
                     band.extend(
@@ -399,24 +522,27 @@ impl Painter for CurvesPainter<'_> {
                     chart
                         .draw_series(std::iter::once(Polygon::new(
                             band,
-                            colour.mix(0.18).filled(),
+                            colour(i).mix(0.18).filled(),
                         )))
                         .map_err(PlotError::draw)?;
                 }
+            }
+            for (i, pts) in points.iter().enumerate() {
+                let c = colour(i);
                 chart
                     .draw_series(LineSeries::new(
                         pts.iter().map(|&(x, v, _)| (x, v)),
-                        colour.stroke_width(2),
+                        c.stroke_width(2),
                     ))
                     .map_err(PlotError::draw)?
-                    .label(label.clone())
+                    .label(self.layout.series[i].0.clone())
                     .legend(move |(x, y)| {
-                        PathElement::new(vec![(x, y), (x + 20, y)], colour.stroke_width(3))
+                        PathElement::new(vec![(x, y), (x + 20, y)], c.stroke_width(3))
                     });
                 chart
                     .draw_series(
                         pts.iter()
-                            .map(|&(x, v, _)| Circle::new((x, v), 3, colour.filled())),
+                            .map(|&(x, v, _)| Circle::new((x, v), 3, c.filled())),
                     )
                     .map_err(PlotError::draw)?;
             }

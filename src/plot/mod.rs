@@ -43,8 +43,8 @@ mod render;
 use std::path::{Path, PathBuf};
 
 pub use curves::{
-    CurveRun, CurvesLayout, CurvesStyle, SummaryRow, curves_layout, parse_summary, plot_curves,
-    plot_curves_to, read_summary,
+    CurveRun, CurvesLayout, CurvesStyle, SummaryRow, curves_layout, parse_per_person_spread,
+    parse_summary, plot_curves, plot_curves_to, read_per_person_spread, read_summary,
 };
 pub use frame::{Extent, Frame, PixelRect};
 pub use map::{MapStyle, plot_map, plot_map_to};

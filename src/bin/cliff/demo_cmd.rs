@@ -11,14 +11,14 @@ use cliff::eval::{EvalConfig, evaluate, summary_table, write_reports};
 use cliff::map::wrap_2pi;
 use cliff::plot::{
     CurveRun, CurvesStyle, MapStyle, PersonPrediction, PredictStyle, plot_curves, plot_map,
-    plot_predictions, read_summary,
+    plot_predictions,
 };
 use cliff::predict::{Method, TrajectoryBatch};
 use cliff::scene::{SceneOptions, demo_tracks, tracks_csv};
 
 use crate::eval_cmd::{PredictionArgs, load_tracks};
 use crate::map_cmd::load_map;
-use crate::plot_cmd::{FloorplanArgs, predict_case};
+use crate::plot_cmd::{FloorplanArgs, Spread, predict_case, run_rows};
 
 /// Arguments of `cliff demo`.
 #[derive(Args, Debug)]
@@ -226,7 +226,8 @@ pub fn run(a: DemoArgs) -> Result<()> {
 
     let summary = a.out.join("summary.csv");
     let curves_png = a.out.join("curves.png");
-    let rows = read_summary(&summary)?;
+    // The paper's figures: mean and standard deviation over people.
+    let rows = run_rows(&summary, Spread::People)?;
     plot_curves(
         &[CurveRun {
             label: "demo".into(),
@@ -234,7 +235,7 @@ pub fn run(a: DemoArgs) -> Result<()> {
         }],
         &CurvesStyle {
             title: Some(format!(
-                "ADE / FDE against horizon, {} people, mean ± 1 sd over {} seeds",
+                "ADE / FDE against horizon: mean ± 1 sd over {} people ({} seeds each)",
                 report.people_evaluated, cfg.seeds
             )),
             ..CurvesStyle::default()

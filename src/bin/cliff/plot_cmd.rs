@@ -9,8 +9,8 @@ use cliff::eval::person_seed;
 use cliff::eval::protocol::{Case, prepare};
 use cliff::map::CliffMap;
 use cliff::plot::{
-    CurveRun, CurvesStyle, Extent, Floorplan, MapStyle, PersonPrediction, PredictStyle,
-    plot_curves, plot_map, plot_predictions, read_summary,
+    CurveRun, CurvesStyle, Extent, Floorplan, MapStyle, PersonPrediction, PredictStyle, SummaryRow,
+    plot_curves, plot_map, plot_predictions, read_per_person_spread, read_summary,
 };
 use cliff::predict::{Method, Params, TrajectoryBatch, predict};
 use cliff::scene::{SceneOptions, demo_tracks};
@@ -176,6 +176,12 @@ pub struct CurvesArgs {
     /// Picture height in pixels.
     #[arg(long, default_value_t = 460)]
     pub height: u32,
+    /// Where means and bands come from: `summary` (the summary's ade, ade_sd, fde,
+    /// fde_sd; `cliff eval` writes the spread over seeds there) or `people` (mean and
+    /// standard deviation over people, from the per_person.csv beside each summary,
+    /// as in the CLiFF-LHMP paper's figures).
+    #[arg(long, value_enum, default_value_t = Spread::Summary)]
+    pub spread: Spread,
     /// Leave out the one-standard-deviation bands.
     #[arg(long)]
     pub no_bands: bool,
@@ -185,6 +191,33 @@ pub struct CurvesArgs {
     /// Output picture: .png or .svg.
     #[arg(long)]
     pub out: PathBuf,
+}
+
+/// The source of the curves' means and bands.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Spread {
+    /// The summary file's columns.
+    Summary,
+    /// Over people, from the per_person.csv beside the summary.
+    People,
+}
+
+/// The rows of one run: the summary itself, or its per-person file summarised.
+pub(crate) fn run_rows(summary: &Path, spread: Spread) -> Result<Vec<SummaryRow>> {
+    Ok(match spread {
+        Spread::Summary => read_summary(summary)?,
+        Spread::People => {
+            let pp = summary.with_file_name("per_person.csv");
+            if !pp.is_file() {
+                bail!(
+                    "--spread people needs {} beside {} (written by cliff eval --out)",
+                    pp.display(),
+                    summary.display()
+                );
+            }
+            read_per_person_spread(&pp)?
+        }
+    })
 }
 
 /// Run a plot subcommand.
@@ -348,7 +381,7 @@ fn run_curves(a: CurvesArgs) -> Result<()> {
     }
     let mut runs = Vec::with_capacity(a.summary.len());
     for (i, path) in a.summary.iter().enumerate() {
-        let rows = read_summary(path)?;
+        let rows = run_rows(path, a.spread)?;
         let label = a
             .label
             .get(i)
@@ -368,7 +401,12 @@ fn run_curves(a: CurvesArgs) -> Result<()> {
     let style = CurvesStyle {
         size: (a.width, a.height),
         bands: !a.no_bands,
-        title: a.title.clone(),
+        title: a.title.clone().or_else(|| {
+            (a.spread == Spread::People).then(|| {
+                "Displacement error against prediction horizon (mean ± 1 sd over people)"
+                    .to_string()
+            })
+        }),
     };
     let layout = plot_curves(&runs, &style, &a.out)
         .with_context(|| format!("drawing {}", a.out.display()))?;
