@@ -172,6 +172,12 @@ fn map_of_the_demo_hall_has_arrows_coloured_by_direction_and_weight() {
         assert!(r == g && g == b && r < 200, "({x}, {y}) is {:?}", (r, g, b));
     }
     assert_eq!(px(&img, at(-9.5, -2.5)), Some((255, 255, 255)));
+    // The title is drawn with the embedded font: dark pixels above the plotting area.
+    let title_ink = (0..frame.area.top)
+        .flat_map(|y| (0..frame.size.0 as i32).map(move |x| (x, y)))
+        .filter(|&p| px(&img, p).is_some_and(|(r, _, _)| r < 100))
+        .count();
+    assert!(title_ink > 150, "title ink {title_ink}");
     // Outside the plotting area, left of it: white margin or black labels, no colour.
     let margin = px(&img, (frame.area.left - 30, frame.area.top + 5)).unwrap();
     assert_eq!(hue_saturation(margin).1, 0.0);
