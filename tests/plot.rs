@@ -10,7 +10,7 @@ use cliff::eval::person_seed;
 use cliff::eval::protocol::{Case, Protocol, Settings, prepare};
 use cliff::map::CliffMap;
 use cliff::plot::{
-    CurveRun, CurvesStyle, Extent, Floorplan, Frame, MapStyle, OBSERVED, SAMPLE, TRUTH,
+    CurveRun, CurvesStyle, Extent, Floorplan, Frame, MapStyle, OBSERVED, PixelRect, SAMPLE, TRUTH,
     curves_layout, direction_colour, hue_saturation, read_summary,
 };
 use cliff::predict::{Params, TrajectoryBatch, predict};
@@ -469,6 +469,38 @@ fn prediction_on_thor1_over_its_floor_plan() {
     assert_eq!(img.dimensions(), frame.size);
     let last_obs = case.observed.last().unwrap().position;
     assert!(has(&img, frame.to_pixel(last_obs), 2, OBSERVED));
+    // The tracks leave this view: they are cut at its edges, never drawn in the
+    // margins (nor squashed onto the border).
+    let leaves = case
+        .future
+        .iter()
+        .any(|r| !frame.extent.contains(r.position));
+    assert!(leaves, "the truth should leave the 6 m view");
+    let mut outside = 0;
+    // lines end at the edge; their width and the dots' radius may reach 4 px beyond
+    let grown = PixelRect {
+        left: frame.area.left - 4,
+        top: frame.area.top - 4,
+        right: frame.area.right + 4,
+        bottom: frame.area.bottom + 4,
+    };
+    for (x, y, p) in img.enumerate_pixels() {
+        let c = (p[0], p[1], p[2]);
+        if !grown.contains((x as i32, y as i32)) && (c == TRUTH || c == OBSERVED || bluish(c)) {
+            outside += 1;
+        }
+    }
+    // (the legend's three colour swatches lie inside the plotting area)
+    assert_eq!(outside, 0, "track pixels outside the plotting area");
+    for row in [frame.area.top, frame.area.top + 1] {
+        let on_border = (frame.area.left..frame.area.right)
+            .filter(|&x| px(&img, (x, row)) == Some(TRUTH))
+            .count();
+        assert!(
+            on_border < 10,
+            "truth drawn along the top border: {on_border} px"
+        );
+    }
 }
 
 fn write_summary(dir: &Path, text: &str) -> PathBuf {

@@ -121,6 +121,62 @@ impl FromStr for Extent {
     }
 }
 
+/// The part of the segment `a`-`b` inside `e` (Liang-Barsky), or `None` when the
+/// segment misses it.
+pub(crate) fn clip_segment(a: DVec2, b: DVec2, e: &Extent) -> Option<(DVec2, DVec2)> {
+    if !(a.is_finite() && b.is_finite()) {
+        return None;
+    }
+    let d = b - a;
+    let (mut t0, mut t1) = (0.0f64, 1.0f64);
+    for (p, q) in [
+        (-d.x, a.x - e.x0),
+        (d.x, e.x1 - a.x),
+        (-d.y, a.y - e.y0),
+        (d.y, e.y1 - a.y),
+    ] {
+        if p == 0.0 {
+            if q < 0.0 {
+                return None;
+            }
+        } else {
+            let r = q / p;
+            if p < 0.0 {
+                t0 = t0.max(r);
+            } else {
+                t1 = t1.min(r);
+            }
+            if t0 > t1 {
+                return None;
+            }
+        }
+    }
+    Some((a + d * t0, a + d * t1))
+}
+
+/// A polyline cut to the parts inside `e`: each run of points continues while the
+/// line stays inside, and a new run starts where it comes back in.
+pub(crate) fn clip_polyline(points: &[DVec2], e: &Extent) -> Vec<Vec<DVec2>> {
+    let mut runs: Vec<Vec<DVec2>> = Vec::new();
+    let mut open = false;
+    for w in points.windows(2) {
+        match clip_segment(w[0], w[1], e) {
+            Some((a, b)) => {
+                if !open || a != w[0] {
+                    runs.push(vec![a]);
+                }
+                runs.last_mut().expect("a run is open").push(b);
+                open = b == w[1];
+            }
+            None => open = false,
+        }
+    }
+    if points.len() == 1 && e.contains(points[0]) {
+        runs.push(vec![points[0]]);
+    }
+    runs
+}
+
 /// A rectangle of pixels: columns `left..right`, rows `top..bottom` (ends exclusive).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct PixelRect {
@@ -305,6 +361,38 @@ mod tests {
         // a very tall extent is capped
         let tall = Frame::for_map(Extent::new(0.0, 1.0, 0.0, 1000.0).unwrap(), 2000);
         assert!(tall.size.1 <= MAX_SIDE);
+    }
+
+    #[test]
+    fn clipping_keeps_the_inside_parts() {
+        let e = Extent::new(0.0, 10.0, 0.0, 10.0).unwrap();
+        let p = |x: f64, y: f64| DVec2::new(x, y);
+        assert_eq!(
+            clip_segment(p(1.0, 1.0), p(2.0, 2.0), &e),
+            Some((p(1.0, 1.0), p(2.0, 2.0)))
+        );
+        assert_eq!(
+            clip_segment(p(-5.0, 5.0), p(15.0, 5.0), &e),
+            Some((p(0.0, 5.0), p(10.0, 5.0)))
+        );
+        assert_eq!(clip_segment(p(-5.0, 5.0), p(-1.0, 5.0), &e), None);
+        let (a, b) = clip_segment(p(-1.0, 5.0), p(5.0, 11.0), &e).unwrap();
+        assert!(a.distance(p(0.0, 6.0)) < 1e-12 && b.distance(p(4.0, 10.0)) < 1e-12);
+        // out and back in: two runs
+        let runs = clip_polyline(
+            &[
+                p(1.0, 1.0),
+                p(5.0, 1.0),
+                p(5.0, 20.0),
+                p(6.0, 5.0),
+                p(7.0, 5.0),
+            ],
+            &e,
+        );
+        assert_eq!(runs.len(), 2, "{runs:?}");
+        assert_eq!(runs[0], vec![p(1.0, 1.0), p(5.0, 1.0), p(5.0, 10.0)]);
+        assert_eq!(runs[1].last(), Some(&p(7.0, 5.0)));
+        assert!((runs[1][0].y - 10.0).abs() < 1e-12);
     }
 
     #[test]

@@ -207,13 +207,26 @@ pub(crate) fn draw_title<DB: DrawingBackend>(
     title: &str,
 ) -> Result<(), PlotError> {
     let (w, _) = root.dim_in_pixel();
-    let style = TextStyle::from(("sans-serif", 18).into_font())
-        .color(&BLACK)
-        .pos(plotters::style::text_anchor::Pos::new(
-            plotters::style::text_anchor::HPos::Center,
-            plotters::style::text_anchor::VPos::Center,
-        ));
-    root.draw_text(title, &style, (w as i32 / 2, 16))
+    // The largest size up to 18 px at which the title fits the width.
+    let style = |size: u32| {
+        TextStyle::from(("sans-serif", size).into_font())
+            .color(&BLACK)
+            .pos(plotters::style::text_anchor::Pos::new(
+                plotters::style::text_anchor::HPos::Center,
+                plotters::style::text_anchor::VPos::Center,
+            ))
+    };
+    let mut size = 18;
+    while size > 9 {
+        let (tw, _) = root
+            .estimate_text_size(title, &style(size))
+            .map_err(PlotError::draw)?;
+        if tw + 12 <= w {
+            break;
+        }
+        size -= 1;
+    }
+    root.draw_text(title, &style(size), (w as i32 / 2, 16))
         .map_err(PlotError::draw)
 }
 
@@ -282,9 +295,8 @@ pub(crate) fn draw_arrows<DB: DrawingBackend>(
     let stroke = if longest_px >= 14.0 { 2 } else { 1 };
     for loc in map.locations() {
         let p = loc.position;
-        if !(ext.x0 - 1.0..=ext.x1 + 1.0).contains(&p.x)
-            || !(ext.y0 - 1.0..=ext.y1 + 1.0).contains(&p.y)
-        {
+        // Arrows are drawn whole or not at all: only those starting in the view.
+        if !ext.contains(p) {
             continue;
         }
         let total: f64 = loc.components.iter().map(|c| c.weight).sum();
@@ -302,6 +314,9 @@ pub(crate) fn draw_arrows<DB: DrawingBackend>(
             let colour = RGBColor(r, g, b).mix(alpha);
             let u = DVec2::from_angle(c.theta);
             let tip = p + u * len;
+            if !ext.contains(tip) {
+                continue;
+            }
             let head = (0.35 * len).min(len);
             let base = tip - u * head;
             let side = u.perp() * head * 0.45;

@@ -47,6 +47,7 @@ pub use curves::{
     parse_summary, plot_curves, plot_curves_to, read_per_person_spread, read_summary,
 };
 pub use frame::{Extent, Frame, PixelRect};
+pub(crate) use frame::{clip_polyline, clip_segment};
 pub use map::{MapStyle, plot_map, plot_map_to};
 pub use predict::{PersonPrediction, PredictStyle, plot_predictions, plot_predictions_to};
 pub use render::{Floorplan, ImageFormat};

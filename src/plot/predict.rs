@@ -9,7 +9,8 @@ use plotters::prelude::*;
 use super::map::{draw_arrows, draw_axes, draw_title, map_extent, world_chart};
 use super::render::{Background, Painter, render};
 use super::{
-    Extent, Floorplan, Frame, ImageFormat, OBSERVED, PlotError, SAMPLE, TRUTH, write_file,
+    Extent, Floorplan, Frame, ImageFormat, OBSERVED, PlotError, SAMPLE, TRUTH, clip_polyline,
+    clip_segment, write_file,
 };
 use crate::eval::protocol::Case;
 use crate::map::CliffMap;
@@ -274,6 +275,7 @@ impl Painter for PredictPainter<'_> {
             )?;
         }
         let area = chart.plotting_area();
+        let view = self.frame.extent;
         let err = PlotError::draw;
         let xy = |p: DVec2| (p.x, p.y);
         // Samples first, so that the tracks stay on top. Each step's segment fades
@@ -290,9 +292,9 @@ impl Painter for PredictPainter<'_> {
                 let mut prev = person.start;
                 for (j, &p) in sample.iter().enumerate() {
                     let alpha = 0.85 - 0.7 * (j as f64 / steps as f64);
-                    if prev.is_finite() && p.is_finite() {
+                    if let Some((a, b)) = clip_segment(prev, p, &view) {
                         area.draw(&PathElement::new(
-                            vec![xy(prev), xy(p)],
+                            vec![xy(a), xy(b)],
                             rgb(SAMPLE).mix(alpha).stroke_width(2),
                         ))
                         .map_err(err)?;
@@ -301,29 +303,35 @@ impl Painter for PredictPainter<'_> {
                 }
             }
         }
+        // Tracks: lines cut to the view, dots where the rows are inside it.
+        let track = |points: &[DVec2], colour: RGBColor| -> Result<(), PlotError> {
+            for run in clip_polyline(points, &view) {
+                area.draw(&PathElement::new(
+                    run.iter().map(|&p| xy(p)).collect::<Vec<_>>(),
+                    colour.stroke_width(3),
+                ))
+                .map_err(err)?;
+            }
+            Ok(())
+        };
+        let dots = |points: &[DVec2], colour: RGBColor| -> Result<(), PlotError> {
+            for &p in points.iter().filter(|p| view.contains(**p)) {
+                area.draw(&Circle::new(xy(p), 3, colour.filled()))
+                    .map_err(err)?;
+            }
+            Ok(())
+        };
         for person in self.people {
             let mut truth = Vec::with_capacity(person.truth.len() + 1);
             if person.start.is_finite() && !person.truth.is_empty() {
-                truth.push(xy(person.start));
+                truth.push(person.start);
             }
-            truth.extend(person.truth.iter().map(|&p| xy(p)));
-            area.draw(&PathElement::new(truth.clone(), rgb(TRUTH).stroke_width(3)))
-                .map_err(err)?;
-            for &p in &truth[usize::from(person.start.is_finite() && !person.truth.is_empty())..] {
-                area.draw(&Circle::new(p, 3, rgb(TRUTH).filled()))
-                    .map_err(err)?;
-            }
-            let observed: Vec<(f64, f64)> = person.observed.iter().map(|&p| xy(p)).collect();
-            area.draw(&PathElement::new(
-                observed.clone(),
-                rgb(OBSERVED).stroke_width(3),
-            ))
-            .map_err(err)?;
-            for &p in &observed {
-                area.draw(&Circle::new(p, 3, rgb(OBSERVED).filled()))
-                    .map_err(err)?;
-            }
-            if person.start.is_finite() {
+            truth.extend_from_slice(&person.truth);
+            track(&truth, rgb(TRUTH))?;
+            dots(&person.truth, rgb(TRUTH))?;
+            track(&person.observed, rgb(OBSERVED))?;
+            dots(&person.observed, rgb(OBSERVED))?;
+            if person.start.is_finite() && view.contains(person.start) {
                 area.draw(&Circle::new(xy(person.start), 6, BLACK.stroke_width(2)))
                     .map_err(err)?;
             }
