@@ -205,48 +205,45 @@ fn map_over_the_thor1_floor_plan_png_and_svg() {
     let img = decode(&out);
     let frame = Frame::for_map(extent, 1000);
     assert_eq!(img.dimensions(), frame.size);
-    // Where the floor plan is black (walls, outside) the picture is the faded grey,
-    // where it is white the picture is white: checked at points far from any map
-    // location, so that no arrow covers them.
     let map = CliffMap::load(&map_file).unwrap();
     let plan = image::open(&plan_file).unwrap().to_luma8();
-    let (w, h) = plan.dimensions();
-    let (mut dark, mut light) = (0, 0);
-    for iy in 0..47 {
-        for ix in 0..46 {
-            let p = DVec2::new(
-                -11.0 + 0.5 * ix as f64 + 0.25,
-                -10.0 + 0.5 * iy as f64 + 0.25,
-            );
-            if map.nearest(p, 1.5).is_some() {
-                continue;
-            }
-            // the floor plan around p must be uniform, so that scaling does not blur it
-            let col = |x: f64| ((x - extent.x0) / extent.width() * w as f64) as i64;
-            let row = |y: f64| ((extent.y1 - y) / extent.height() * h as f64) as i64;
-            let mut vals = vec![];
-            for d in [-0.1, 0.0, 0.1] {
-                for e in [-0.1, 0.0, 0.1] {
-                    let (c, r) = (col(p.x + d), row(p.y + e));
-                    if (0..w as i64).contains(&c) && (0..h as i64).contains(&r) {
-                        vals.push(plan.get_pixel(c as u32, r as u32)[0]);
-                    }
-                }
-            }
-            if vals.len() < 9 {
-                continue;
-            }
-            let pix = px(&img, frame.to_pixel(p)).unwrap();
-            if vals.iter().all(|&v| v < 20) {
-                dark += 1;
-                assert!(pix.0 < 190 && pix.0 > 140 && pix.0 == pix.2, "{p}: {pix:?}");
-            } else if vals.iter().all(|&v| v > 235) {
-                light += 1;
-                assert!(pix.0 > 245 && pix.1 > 245 && pix.2 > 245, "{p}: {pix:?}");
-            }
+    let (dark, light) = check_floorplan(&img, &frame, &map, &plan, &extent, 0.5);
+    assert!(dark > 100 && light > 20, "dark {dark}, light {light}");
+    // Zoomed in on the obstacle, and zoomed out beyond the plan: the plan stays in place.
+    for (view, width, step, want) in [
+        ("-2,4,-3,3", 500, 0.2, 20),
+        ("-20,20,-15,20", 700, 0.5, 100),
+    ] {
+        let zoom = dir.join("zoom.png");
+        ok(&[
+            "plot",
+            "map",
+            "--map",
+            &map_file,
+            "--floorplan",
+            &plan_file,
+            "--extent=-11,12,-10,13.5",
+            &format!("--view={view}"),
+            "--width",
+            &width.to_string(),
+            "--no-legend",
+            "--out",
+            s(&zoom),
+        ]);
+        let img = decode(&zoom);
+        let frame = Frame::for_map(view.parse().unwrap(), width);
+        assert_eq!(img.dimensions(), frame.size);
+        let (dark, light) = check_floorplan(&img, &frame, &map, &plan, &extent, step);
+        assert!(
+            dark >= want && light >= want / 5,
+            "{view}: dark {dark}, light {light}"
+        );
+        if view.starts_with("-20") {
+            // outside the plan's extent: white
+            let p = frame.to_pixel(DVec2::new(-15.0, 0.0));
+            assert_eq!(px(&img, p), Some((255, 255, 255)));
         }
     }
-    assert!(dark > 100 && light > 20, "dark {dark}, light {light}");
     // Arrows: at each location with one component, its colour along its direction.
     let mut checked = 0;
     let seconds = MapStyle::default().arrow_seconds_for(&map);
@@ -302,6 +299,60 @@ fn map_over_the_thor1_floor_plan_png_and_svg() {
     );
     let (r, g, b) = direction_colour(map.locations()[0].components[0].theta);
     assert!(svg.contains(&format!("#{r:02X}{g:02X}{b:02X}")));
+}
+
+/// Where the floor plan is black (walls, outside) the picture is the faded grey, where
+/// it is white the picture is white: checked on a grid of `step` over the frame's view
+/// at points farther than 0.4 m from any map location (the arrows are shorter) and where the
+/// plan is uniform around the point (so that scaling does not blur it). Returns the
+/// numbers of dark and light points checked.
+fn check_floorplan(
+    img: &RgbImage,
+    frame: &Frame,
+    map: &CliffMap,
+    plan: &image::GrayImage,
+    extent: &Extent,
+    step: f64,
+) -> (usize, usize) {
+    let (w, h) = plan.dimensions();
+    let (mut dark, mut light) = (0, 0);
+    let v = frame.extent;
+    let nx = (v.width() / step) as usize;
+    let ny = (v.height() / step) as usize;
+    for iy in 0..ny {
+        for ix in 0..nx {
+            let p = DVec2::new(
+                v.x0 + step * (ix as f64 + 0.5),
+                v.y0 + step * (iy as f64 + 0.5),
+            );
+            if map.nearest(p, 0.4).is_some() {
+                continue;
+            }
+            let col = |x: f64| ((x - extent.x0) / extent.width() * w as f64) as i64;
+            let row = |y: f64| ((extent.y1 - y) / extent.height() * h as f64) as i64;
+            let mut vals = vec![];
+            for d in [-0.1, 0.0, 0.1] {
+                for e in [-0.1, 0.0, 0.1] {
+                    let (c, r) = (col(p.x + d), row(p.y + e));
+                    if (0..w as i64).contains(&c) && (0..h as i64).contains(&r) {
+                        vals.push(plan.get_pixel(c as u32, r as u32)[0]);
+                    }
+                }
+            }
+            if vals.len() < 9 {
+                continue;
+            }
+            let pix = px(img, frame.to_pixel(p)).unwrap();
+            if vals.iter().all(|&v| v < 20) {
+                dark += 1;
+                assert!(pix.0 < 190 && pix.0 > 140 && pix.0 == pix.2, "{p}: {pix:?}");
+            } else if vals.iter().all(|&v| v > 235) {
+                light += 1;
+                assert!(pix.0 > 245 && pix.1 > 245 && pix.2 > 245, "{p}: {pix:?}");
+            }
+        }
+    }
+    (dark, light)
 }
 
 /// The case and prediction `cliff plot predict` makes with its defaults.

@@ -177,30 +177,74 @@ impl Background {
     pub fn new(frame: &Frame, floorplan: Option<&Floorplan>, strength: f64) -> Self {
         let mut image = RgbImage::from_pixel(frame.size.0, frame.size.1, Rgb([255, 255, 255]));
         if let Some(fp) = floorplan {
-            let e = fp.extent;
-            let (ax, ay) = frame.to_pixel(DVec2::new(e.x0, e.y1));
-            let (bx, by) = frame.to_pixel(DVec2::new(e.x1, e.y0));
-            let (w, h) = ((bx - ax + 1).max(1), (by - ay + 1).max(1));
-            // Guard against absurd zoom (a tiny view of a huge plan).
-            if (w as i64) * (h as i64) <= 64_000_000 {
-                let scaled =
-                    image::imageops::resize(&fp.image, w as u32, h as u32, FilterType::Triangle);
-                let s = strength.clamp(0.0, 1.0);
-                let area = frame.area;
-                for y in area.top.max(ay)..area.bottom.min(ay + h) {
-                    for x in area.left.max(ax)..area.right.min(ax + w) {
-                        let src = scaled.get_pixel((x - ax) as u32, (y - ay) as u32);
-                        let fade = |v: u8| (255.0 - (255.0 - v as f64) * s).round() as u8;
-                        image.put_pixel(
-                            x as u32,
-                            y as u32,
-                            Rgb([fade(src[0]), fade(src[1]), fade(src[2])]),
-                        );
-                    }
-                }
-            }
+            paste_floorplan(&mut image, frame, fp, strength);
         }
         Background { image }
+    }
+}
+
+/// Draw the part of `fp` inside `frame`'s view into its plotting area, faded. Only
+/// the visible part of the image is cropped and scaled, so the work is bounded by the
+/// plotting area whatever the zoom.
+fn paste_floorplan(image: &mut RgbImage, frame: &Frame, fp: &Floorplan, strength: f64) {
+    let (e, v) = (fp.extent, frame.extent);
+    let (w, h) = (fp.image.width() as f64, fp.image.height() as f64);
+    // the visible world rectangle, in source pixels, widened to whole pixels
+    let (vx0, vx1) = (e.x0.max(v.x0), e.x1.min(v.x1));
+    let (vy0, vy1) = (e.y0.max(v.y0), e.y1.min(v.y1));
+    if vx0 >= vx1 || vy0 >= vy1 {
+        return;
+    }
+    let col = |x: f64| ((x - e.x0) / e.width() * w).clamp(0.0, w);
+    let row = |y: f64| ((e.y1 - y) / e.height() * h).clamp(0.0, h);
+    let (c0, c1) = (
+        col(vx0).floor(),
+        col(vx1).ceil().max(col(vx0).floor() + 1.0),
+    );
+    let (r0, r1) = (
+        row(vy1).floor(),
+        row(vy0).ceil().max(row(vy1).floor() + 1.0),
+    );
+    let (c1, r1) = (c1.min(w), r1.min(h));
+    if c1 <= c0 || r1 <= r0 {
+        return;
+    }
+    // where that whole-pixel crop lands in the picture
+    let wx = |c: f64| e.x0 + c / w * e.width();
+    let wy = |r: f64| e.y1 - r / h * e.height();
+    let (ax, ay) = frame.to_pixel(DVec2::new(wx(c0), wy(r0)));
+    let (bx, by) = frame.to_pixel(DVec2::new(wx(c1), wy(r1)));
+    let (dw, dh) = (
+        i64::from(bx) - i64::from(ax) + 1,
+        i64::from(by) - i64::from(ay) + 1,
+    );
+    let (fw, fh) = (frame.size.0 as i64, frame.size.1 as i64);
+    // at most a few pixels beyond the picture: anything else is a degenerate frame
+    if dw < 1 || dh < 1 || dw > 4 * fw + 8 || dh > 4 * fh + 8 {
+        return;
+    }
+    let crop = image::imageops::crop_imm(
+        &fp.image,
+        c0 as u32,
+        r0 as u32,
+        (c1 - c0) as u32,
+        (r1 - r0) as u32,
+    )
+    .to_image();
+    let scaled = image::imageops::resize(&crop, dw as u32, dh as u32, FilterType::Triangle);
+    let s = strength.clamp(0.0, 1.0);
+    let fade = |u: u8| (255.0 - (255.0 - u as f64) * s).round() as u8;
+    let area = frame.area;
+    let (ax, ay) = (i64::from(ax), i64::from(ay));
+    for y in i64::from(area.top).max(ay)..i64::from(area.bottom).min(ay + dh) {
+        for x in i64::from(area.left).max(ax)..i64::from(area.right).min(ax + dw) {
+            let src = scaled.get_pixel((x - ax) as u32, (y - ay) as u32);
+            image.put_pixel(
+                x as u32,
+                y as u32,
+                Rgb([fade(src[0]), fade(src[1]), fade(src[2])]),
+            );
+        }
     }
 }
 
