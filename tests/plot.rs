@@ -172,6 +172,24 @@ fn map_of_the_demo_hall_has_arrows_coloured_by_direction_and_weight() {
         assert!(r == g && g == b && r < 200, "({x}, {y}) is {:?}", (r, g, b));
     }
     assert_eq!(px(&img, at(-9.5, -2.5)), Some((255, 255, 255)));
+    // --min-weight leaves out the weaker components: at y = 2 the east weight is 0.43.
+    let thin = dir.join("thin.png");
+    ok(&[
+        "plot",
+        "map",
+        "--width",
+        "900",
+        "--min-weight",
+        "0.5",
+        "--out",
+        s(&thin),
+    ]);
+    let thin = decode(&thin);
+    for x in [-12.0, 9.0] {
+        assert!(saturation_of_hue(&thin, at(x + 0.2, 2.0), 2, east) < 0.05);
+        assert!(saturation_of_hue(&thin, at(x - 0.2, 2.0), 2, west) > 0.3);
+        assert!(saturation_of_hue(&thin, at(x + 0.2, -2.0), 2, east) > 0.3);
+    }
     // The title is drawn with the embedded font: dark pixels above the plotting area.
     let title_ink = (0..frame.area.top)
         .flat_map(|y| (0..frame.size.0 as i32).map(move |x| (x, y)))

@@ -398,6 +398,30 @@ mod tests {
     }
 
     #[test]
+    fn frame_transform_is_the_charts_transform() {
+        // The public Frame maps world points to exactly the pixels the chart uses.
+        for (extent, width) in [
+            (Extent::new(-16.0, 16.0, -11.0, 11.0).unwrap(), 900),
+            (Extent::new(-60.0, 80.0, -40.0, 20.0).unwrap(), 1000),
+            (Extent::new(0.3, 0.9, -2.0, 7.0).unwrap(), 333),
+        ] {
+            let frame = Frame::for_map(extent, width);
+            let mut buf = vec![0u8; (frame.size.0 * frame.size.1 * 3) as usize];
+            let root = BitMapBackend::with_buffer(&mut buf, frame.size).into_drawing_area();
+            let chart = world_chart(&root, &frame).unwrap();
+            for i in 0..=20 {
+                for j in 0..=20 {
+                    let p = DVec2::new(
+                        extent.x0 + extent.width() * i as f64 / 20.0,
+                        extent.y0 + extent.height() * j as f64 / 20.0,
+                    );
+                    assert_eq!(frame.to_pixel(p), chart.backend_coord(&(p.x, p.y)), "{p}");
+                }
+            }
+        }
+    }
+
+    #[test]
     fn bad_styles_are_refused() {
         let map = CliffMap::demo();
         for style in [
