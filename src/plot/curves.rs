@@ -351,6 +351,21 @@ fn series_of(runs: &[CurveRun]) -> Vec<(usize, String)> {
 /// The layout [`plot_curves`] uses for `runs`: panel frames and series colours.
 /// The horizon axis runs from 0 to the largest horizon; the metre axes from 0 to the
 /// largest mean plus one standard deviation (or mean, without bands), plus 5 %.
+///
+/// ```
+/// use cliff::plot::{curves_layout, parse_summary, CurveRun, CurvesStyle};
+/// let rows = parse_summary(
+///     "method,horizon,ade,fde,ade_sd,fde_sd\ncvm,4,1.0,2.0,0.5,1.0\ncliff,4,0.8,1.5,0.2,0.5\n",
+///     "inline",
+/// ).unwrap();
+/// let layout = curves_layout(&[CurveRun { label: "run".into(), rows }], &CurvesStyle::default()).unwrap();
+/// // one run: the legend names the methods, in order of first appearance
+/// assert_eq!(layout.series[0].0, "cvm");
+/// assert!((layout.ade.extent.y1 - 1.5 * 1.05).abs() < 1e-12);
+/// // the pixel where cvm's ADE at 4 s is drawn
+/// let (x, y) = layout.ade.to_pixel(glam::DVec2::new(4.0, 1.0));
+/// assert!(layout.ade.area.contains((x, y)));
+/// ```
 pub fn curves_layout(runs: &[CurveRun], style: &CurvesStyle) -> Result<CurvesLayout, PlotError> {
     let (w, h) = style.size;
     if !(400..=8192).contains(&w) || !(200..=8192).contains(&h) {
