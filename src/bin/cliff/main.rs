@@ -2,8 +2,10 @@
 //!
 //! A thin layer over the `cliff` library: each subcommand group lives in its own module.
 
+mod demo_cmd;
 mod eval_cmd;
 mod map_cmd;
+mod plot_cmd;
 
 use clap::{Parser, Subcommand};
 
@@ -31,6 +33,14 @@ enum Command {
     Eval(eval_cmd::EvalArgs),
     /// Predict the samples of one person of a trajectory file and write them as CSV.
     Predict(eval_cmd::PredictArgs),
+    /// Draw pictures: a map as coloured arrows, a person's prediction, error curves.
+    #[command(subcommand)]
+    Plot(plot_cmd::PlotCommand),
+    /// The guided tour: predict and evaluate in the demo hall (or on --map/--tracks)
+    /// and write a map, a prediction and an error-curve picture as PNG.
+    ///
+    /// Example: cliff demo --out cliff-demo
+    Demo(demo_cmd::DemoArgs),
 }
 
 fn main() -> std::process::ExitCode {
@@ -46,6 +56,8 @@ fn main() -> std::process::ExitCode {
         Command::Map(c) => map_cmd::run(c),
         Command::Eval(a) => eval_cmd::run_eval(a),
         Command::Predict(a) => eval_cmd::run_predict(a),
+        Command::Plot(c) => plot_cmd::run(c),
+        Command::Demo(a) => demo_cmd::run(a),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,
