@@ -359,8 +359,8 @@ fn roll_cliff_lanes(
     let start = near(state.position);
     let mut px = [state.position.x; LANES];
     let mut py = [state.position.y; LANES];
-    let mut ux = [c0; LANES];
-    let mut uy = [s0; LANES];
+    let mut ux = [c0 as f32; LANES];
+    let mut uy = [s0 as f32; LANES];
     let mut theta = [theta0; LANES];
     let mut loc = [start.unwrap_or(0); LANES];
     let mut active = [false; LANES];
@@ -379,17 +379,21 @@ fn roll_cliff_lanes(
         // Phase 2: turn and move every lane (straight-line arithmetic, lanes interleaved).
         match params.heading {
             HeadingRule::CircularMean => {
+                // Single precision: a heading error of 1e-7 rad per step is far below the
+                // sampling noise, and four f32 lanes fill one SSE2 register.
+                let beta = params.beta as f32;
                 for l in 0..LANES {
-                    let (sin, cos) = fastmath::sin_cos(ts[l]);
+                    let (sin, cos) = fastmath::sin_cos_f32(ts[l] as f32);
+                    let (hx, hy) = (ux[l], uy[l]);
                     // |shortest angle| between the sample and the heading, in [0, pi].
-                    let delta = fastmath::acos(cos * ux[l] + sin * uy[l]);
-                    let lambda = fastmath::exp_neg(-params.beta * delta * delta);
-                    let vx = cos * lambda + ux[l] * (1.0 - lambda);
-                    let vy = sin * lambda + uy[l] * (1.0 - lambda);
-                    let norm = (vx * vx + vy * vy).sqrt();
+                    let delta = fastmath::acos_f32(cos * hx + sin * hy);
+                    let lambda = fastmath::exp_neg_f32(-beta * delta * delta);
+                    let vx = cos * lambda + hx * (1.0 - lambda);
+                    let vy = sin * lambda + hy * (1.0 - lambda);
+                    let n2 = vx * vx + vy * vy;
                     // Exactly opposite with lambda = 1/2: the reference's atan2(0, 0) = 0.
-                    let ok = norm > 1e-12;
-                    let inv = 1.0 / norm;
+                    let ok = n2 > 1e-20;
+                    let inv = 1.0 / n2.max(1e-20).sqrt();
                     ux[l] = if ok { vx * inv } else { 1.0 };
                     uy[l] = if ok { vy * inv } else { 0.0 };
                 }
@@ -405,14 +409,14 @@ fn roll_cliff_lanes(
                     let lambda = fastmath::exp_neg(-params.beta * signed * signed);
                     theta[l] = wrap_2pi(theta[l] + lambda * signed);
                     let (sin, cos) = fastmath::sin_cos(theta[l]);
-                    ux[l] = cos;
-                    uy[l] = sin;
+                    ux[l] = cos as f32;
+                    uy[l] = sin as f32;
                 }
             }
         }
         for l in 0..LANES {
-            px[l] += ux[l] * dist;
-            py[l] += uy[l] * dist;
+            px[l] += ux[l] as f64 * dist;
+            py[l] += uy[l] as f64 * dist;
         }
         // Phase 3: look up the new positions; a lane with nothing near ends.
         let mut any = false;
