@@ -181,7 +181,7 @@ struct DirectionComponent {
 }
 
 /// Most radii whose neighbour tables a map keeps; further radii use the grid scan.
-const MAX_CACHED_RADII: usize = 16;
+const MAX_CACHED_RADII: usize = 8;
 
 /// A CLiFF-map: locations on a regular grid with a grid index and sampling tables.
 #[derive(Debug)]
@@ -274,14 +274,17 @@ pub fn clamp_psd(cov: [f64; 4]) -> ([f64; 4], bool) {
 /// Wrap an angle to `[0, 2pi)` (NaN stays NaN).
 #[inline]
 pub fn wrap_2pi(a: f64) -> f64 {
-    if (0.0..TAU).contains(&a) {
-        return a;
+    if !(a.abs() < 1e15) {
+        // Huge or NaN: the slow, general way.
+        let w = a.rem_euclid(TAU);
+        return if w >= TAU { 0.0 } else { w };
     }
-    // Truncating conversion instead of floor/rem_euclid: no libm call in hot loops.
-    let mut w = a - TAU * ((a / TAU) as i64 as f64);
-    if w < 0.0 {
-        w += TAU;
-    }
+    // floor(a / 2pi) by the 1.5 * 2^52 rounding trick: branch-free and no libm call
+    // (directions near 0 cross the wrap half of the time, so a branch would mispredict).
+    const MAGIC: f64 = 6_755_399_441_055_744.0;
+    let n = ((a * (1.0 / TAU) - 0.5) + MAGIC) - MAGIC;
+    let w = a - n * TAU;
+    let w = if w < 0.0 { w + TAU } else { w };
     if w >= TAU { w - TAU } else { w }
 }
 
@@ -447,7 +450,7 @@ impl CliffMap {
     }
 
     /// A [`Lookup`] for `radius`: through a neighbour table, built on first use of the
-    /// radius and kept (up to 16 radii per map), else through the grid scan. Both give
+    /// radius and kept (up to 8 radii per map, at most 16 MiB each), else through the grid scan. Both give
     /// the same answers as [`best_near`](Self::best_near).
     pub fn lookup(&self, radius: f64) -> Lookup<'_> {
         if let Ok(cache) = self.neighbours.read()

@@ -5,7 +5,8 @@
 //! by observation ratio (largest first, then by index). The location CLiFF-LHMP samples
 //! from is then the first candidate that is actually within the radius.
 //!
-//! Each cell is further split into `SUB x SUB` sub-cells. Where one location is the
+//! Each cell is further split into `n x n` sub-cells (n = 16, 8 or 4: the finest whose
+//! table fits [`MAX_SUB_CELLS`]). Where one location is the
 //! answer for every point of a sub-cell (the usual case), or none is near any of its
 //! points, the sub-cell stores that answer, and a query is a single table load; only
 //! sub-cells on a boundary between answers scan the cell's candidates.
@@ -14,10 +15,10 @@ use glam::DVec2;
 
 use super::GridIndex;
 
-/// Largest table (sub-cells) built; larger maps use the plain grid scan.
-const MAX_CELLS: usize = 16_000_000;
-/// Sub-cells per cell along each axis.
-const SUB: usize = 4;
+/// Largest sub-cell table (entries of 4 bytes) one radius gets: 16 MiB.
+pub const MAX_SUB_CELLS: usize = 4 << 20;
+/// Sub-cells per cell along each axis, as powers of two, finest first.
+const SUB_SHIFTS: [u32; 3] = [4, 3, 2];
 /// Sub-cell code: no location is near any point of the sub-cell.
 const NONE_NEAR: u32 = u32::MAX;
 /// Sub-cell code: the answer varies within the sub-cell; scan the cell's candidates.
@@ -40,6 +41,8 @@ pub struct NeighbourTable {
     r2: f64,
     origin: DVec2,
     inv_sub: f64,
+    /// log2 of the sub-cells per cell along an axis.
+    shift: u32,
     nx: usize,
     ny: usize,
     offsets: Vec<u32>,
@@ -61,9 +64,11 @@ impl NeighbourTable {
         let (gx, gy) = grid.dims();
         let nx = gx + 2 * margin;
         let ny = gy + 2 * margin;
-        if nx.checked_mul(ny)?.checked_mul(SUB * SUB)? > MAX_CELLS {
-            return None;
-        }
+        let cells = nx.checked_mul(ny)?;
+        let shift = *SUB_SHIFTS
+            .iter()
+            .find(|&&s| cells.saturating_mul(1 << (2 * s)) <= MAX_SUB_CELLS)?;
+        let sub_n = 1usize << shift;
         let origin = grid.origin() - DVec2::splat(margin as f64 * step);
         let r2 = radius * radius;
         let mut offsets = Vec::with_capacity(nx * ny + 1);
@@ -106,22 +111,22 @@ impl NeighbourTable {
         }
         offsets.push(candidates.len() as u32);
         // Resolve the sub-cells.
-        let h = step / SUB as f64;
-        let snx = nx * SUB;
-        let mut sub = vec![SCAN; snx * ny * SUB];
+        let h = step / sub_n as f64;
+        let snx = nx * sub_n;
+        let mut sub = vec![SCAN; snx * ny * sub_n];
         let (lo_r2, hi_r2) = (
             (radius - MARGIN).max(0.0).powi(2),
             (radius + MARGIN).powi(2),
         );
-        for sy in 0..ny * SUB {
+        for sy in 0..ny * sub_n {
             for sx in 0..snx {
-                let cell = (sy / SUB) * nx + sx / SUB;
+                let cell = (sy >> shift) * nx + (sx >> shift);
                 let list = &candidates[offsets[cell] as usize..offsets[cell + 1] as usize];
                 // The sub-cell is the square of side h around `centre`.
                 let centre = origin
                     + DVec2::new(
-                        sx as f64 + 0.5 - SUB as f64 / 2.0,
-                        sy as f64 + 0.5 - SUB as f64 / 2.0,
+                        sx as f64 + 0.5 - sub_n as f64 / 2.0,
+                        sy as f64 + 0.5 - sub_n as f64 / 2.0,
                     ) * h;
                 let half = DVec2::splat(h / 2.0);
                 let min_d2 = |q: DVec2| {
@@ -142,7 +147,8 @@ impl NeighbourTable {
             radius,
             r2,
             origin,
-            inv_sub: SUB as f64 / step,
+            inv_sub: sub_n as f64 / step,
+            shift,
             nx,
             ny,
             offsets,
@@ -160,8 +166,9 @@ impl NeighbourTable {
     /// `p` (ties: the lowest index), as [`CliffMap::best_near`](super::CliffMap::best_near).
     #[inline]
     pub fn best_near(&self, p: DVec2) -> Option<usize> {
-        let f = (p - self.origin) * self.inv_sub + DVec2::splat(SUB as f64 / 2.0);
-        let (snx, sny) = (self.nx * SUB, self.ny * SUB);
+        let half = (1u32 << self.shift) as f64 / 2.0;
+        let f = (p - self.origin) * self.inv_sub + DVec2::splat(half);
+        let (snx, sny) = (self.nx << self.shift, self.ny << self.shift);
         if !(f.x >= 0.0 && f.y >= 0.0 && f.x < snx as f64 && f.y < sny as f64) {
             // Outside the map and its margin (or NaN): nothing can be near.
             return None;
@@ -172,7 +179,7 @@ impl NeighbourTable {
             SCAN => {}
             i => return Some(i as usize),
         }
-        let cell = (sy / SUB) * self.nx + sx / SUB;
+        let cell = (sy >> self.shift) * self.nx + (sx >> self.shift);
         let (a, b) = (self.offsets[cell] as usize, self.offsets[cell + 1] as usize);
         self.candidates[a..b]
             .iter()

@@ -195,5 +195,4 @@ mod tests {
         assert!(we < 5e-7, "exp {we}");
         assert_eq!(exp_neg_f32(-100.0), 0.0);
     }
-
 }
