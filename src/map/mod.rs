@@ -274,7 +274,7 @@ pub fn clamp_psd(cov: [f64; 4]) -> ([f64; 4], bool) {
 /// Wrap an angle to `[0, 2pi)` (NaN stays NaN).
 #[inline]
 pub fn wrap_2pi(a: f64) -> f64 {
-    if !(a.abs() < 1e15) {
+    if a.is_nan() || a.abs() >= 1e15 {
         // Huge or NaN: the slow, general way.
         let w = a.rem_euclid(TAU);
         return if w >= TAU { 0.0 } else { w };
