@@ -561,11 +561,12 @@ fn merge(a: &Component, b: &Component) -> Component {
     }
 }
 
-/// Merge near-duplicates, prune tiny weights, cap the count; weights renormalised and
-/// covariances kept positive definite.
+/// Merge near-duplicates, prune tiny weights, cap the count (the lightest component is
+/// merged into its closest neighbour until the node fits, so strong flows keep their
+/// shape); weights renormalised and covariances kept positive definite.
 fn tidy(comps: &mut Vec<Component>, p: &UpdateParams, ch: &mut NodeChange) {
+    // Near-duplicates: closest pair first.
     loop {
-        // Closest pair.
         let mut best: Option<(f64, usize, usize)> = None;
         for i in 0..comps.len() {
             for j in i + 1..comps.len() {
@@ -576,14 +577,29 @@ fn tidy(comps: &mut Vec<Component>, p: &UpdateParams, ch: &mut NodeChange) {
             }
         }
         match best {
-            Some((d, i, j)) if d < p.merge_distance || comps.len() > p.max_components => {
-                let m = merge(&comps[i], &comps[j]);
-                comps[i] = m;
+            Some((d, i, j)) if d < p.merge_distance => {
+                comps[i] = merge(&comps[i], &comps[j]);
                 comps.remove(j);
                 ch.merged += 1;
             }
             _ => break,
         }
+    }
+    // Cap.
+    while comps.len() > p.max_components {
+        let light = (0..comps.len())
+            .min_by(|&a, &b| comps[a].weight.total_cmp(&comps[b].weight))
+            .expect("not empty");
+        let into = (0..comps.len())
+            .filter(|&k| k != light)
+            .min_by(|&a, &b| {
+                bhattacharyya(&comps[light], &comps[a])
+                    .total_cmp(&bhattacharyya(&comps[light], &comps[b]))
+            })
+            .expect("two or more");
+        comps[into] = merge(&comps[into], &comps[light]);
+        comps.remove(light);
+        ch.merged += 1;
     }
     let before = comps.len();
     let total: f64 = comps.iter().map(|c| c.weight).sum();
@@ -611,6 +627,70 @@ mod tests {
             cov: [v, 0.0, 0.0, v],
             weight: w,
         }
+    }
+
+    fn batch(seed: u64, n: usize, flows: &[(f64, f64)]) -> Vec<Observation> {
+        use rand::SeedableRng;
+        use rand_distr::{Distribution, Normal};
+        let mut rng = rand_xoshiro::Xoshiro256PlusPlus::seed_from_u64(seed);
+        let z = Normal::new(0.0, 1.0).unwrap();
+        (0..n)
+            .map(|i| {
+                let (t, r) = flows[i % flows.len()];
+                Observation {
+                    position: DVec2::new(2.0 * z.sample(&mut rng), 2.0 * z.sample(&mut rng)),
+                    theta: wrap_2pi(t + 0.2 * z.sample(&mut rng)),
+                    rho: (r + 0.1 * z.sample(&mut rng)).abs() + 0.01,
+                }
+            })
+            .collect()
+    }
+
+    #[test]
+    fn updates_keep_invariants_and_bounded_size() {
+        let build = BuildParams::default();
+        let p = UpdateParams {
+            max_components: 4,
+            ..UpdateParams::default()
+        };
+        let mut m = OnlineMap::build(&batch(1, 4000, &[(0.05, 1.2)]), &build, p).unwrap();
+        // Flows come and go, one across direction 0.
+        let flows: [&[(f64, f64)]; 4] = [
+            &[(6.2, 1.0), (3.0, 0.8)],
+            &[(1.5, 1.4)],
+            &[(4.6, 0.6), (0.1, 1.1), (2.2, 1.0)],
+            &[(3.0, 0.8), (5.0, 1.5)],
+        ];
+        for round in 0..12 {
+            let r = m
+                .update(&batch(100 + round, 3000, flows[round as usize % 4]))
+                .unwrap();
+            assert!(r.updated > 0);
+            let map = m.to_map().unwrap();
+            for loc in map.locations() {
+                assert!(loc.components.len() <= 4, "{:?}", loc.components.len());
+                let total: f64 = loc.components.iter().map(|c| c.weight).sum();
+                assert!((total - 1.0).abs() < 1e-9, "{total}");
+                for c in &loc.components {
+                    assert!((0.0..TAU).contains(&c.theta), "{c:?}");
+                    assert!(c.rho >= 0.0);
+                    let (_, small) = eig_sym(c.cov);
+                    assert!(small > 0.0 && (c.cov[1] - c.cov[2]).abs() < 1e-12, "{c:?}");
+                }
+            }
+            assert!(map.report().clamped_covariances == 0);
+        }
+        // The last flows dominate the busiest location.
+        let map = m.to_map().unwrap();
+        let loc = &map.locations()[map.nearest(DVec2::ZERO, 0.5).unwrap()];
+        let near = |t: f64| {
+            loc.components
+                .iter()
+                .filter(|c| wrap_pi(c.theta - t).abs() < 0.3)
+                .map(|c| c.weight)
+                .sum::<f64>()
+        };
+        assert!(near(3.0) > 0.2 && near(5.0) > 0.2, "{:?}", loc.components);
     }
 
     #[test]
