@@ -1,0 +1,656 @@
+//! # cliff-service: the `cliffd` prediction daemon
+//!
+//! [`Daemon`] holds named CLiFF-maps in memory and answers prediction requests over one
+//! iceoryx2 request-response service (protocol: [`cliff_client::protocol`]). Each
+//! request is validated ([`cliff_client::protocol::decode_request`]) and answered with
+//! one slice response that [`cliff::predict::predict_into`] writes in place: no copy and
+//! no allocation per request.
+//!
+//! The serving loop busy-polls for [`Settings::idle_spin`] after the last request, then
+//! sleeps on an iceoryx2 event that clients signal with every request. Maps reload in a
+//! background thread (SIGHUP or a reload request); a map that fails to load keeps its old
+//! version. Dead clients' resources are cleaned up once a second.
+#![warn(missing_docs)]
+
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc;
+use std::time::{Duration, Instant};
+
+use cliff::map::CliffMap;
+use cliff::predict::{BatchMut, predict_into};
+use cliff_client::protocol::{
+    self, DecodeScratch, Field, KIND_RELOAD, Limits, MAP_NAME_BYTES, Observation,
+    PROTOCOL_VERSION, Rejection, RequestHeader, ResponseHeader, Status,
+};
+use cliff_client::{PredictService, request_event_name, response_event_name};
+use iceoryx2::active_request::ActiveRequest;
+use iceoryx2::port::listener::Listener;
+use iceoryx2::port::notifier::{ListenerKey, Notifier};
+use iceoryx2::port::server::Server;
+use iceoryx2::prelude::*;
+use tracing::{debug, error, info, warn};
+
+/// A map to serve: a name and the file it comes from (`None`: the built-in demo scene).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct MapSpec {
+    /// Name clients ask for.
+    pub name: String,
+    /// CSV or snapshot file; `None` for the built-in scene.
+    pub path: Option<PathBuf>,
+}
+
+impl std::str::FromStr for MapSpec {
+    type Err = String;
+    /// `NAME=PATH`.
+    fn from_str(s: &str) -> Result<Self, String> {
+        let (name, path) = s
+            .split_once('=')
+            .ok_or_else(|| format!("'{s}' is not NAME=PATH (for example hall=maps/hall.csv)"))?;
+        protocol::encode_map_name(name)?;
+        if path.is_empty() {
+            return Err(format!("map '{name}' has an empty path"));
+        }
+        Ok(MapSpec {
+            name: name.to_string(),
+            path: Some(PathBuf::from(path)),
+        })
+    }
+}
+
+/// Daemon settings. The iceoryx2 service limits are derived from them.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Settings {
+    /// iceoryx2 service name.
+    pub service: String,
+    /// iceoryx2 prefix (namespace); `None`: iceoryx2's default.
+    pub prefix: Option<String>,
+    /// Maps; empty: the built-in demo scene under the name `demo`.
+    pub maps: Vec<MapSpec>,
+    /// Per-request limits.
+    pub limits: Limits,
+    /// Client processes served at once.
+    pub max_clients: usize,
+    /// Requests one client may have in flight.
+    pub max_active_requests: usize,
+    /// How long the loop busy-polls after the last request before it sleeps.
+    pub idle_spin: Duration,
+}
+
+impl Default for Settings {
+    fn default() -> Self {
+        Settings {
+            service: cliff_client::DEFAULT_SERVICE.to_string(),
+            prefix: None,
+            maps: Vec::new(),
+            limits: Limits::default(),
+            max_clients: 16,
+            max_active_requests: 2,
+            idle_spin: Duration::from_millis(1),
+        }
+    }
+}
+
+/// Errors that stop the daemon from starting.
+#[derive(Debug, thiserror::Error)]
+pub enum StartError {
+    /// A map file could not be loaded.
+    #[error("map '{name}': {source}")]
+    Map {
+        /// Map name.
+        name: String,
+        /// Why.
+        source: cliff::map::MapError,
+    },
+    /// Settings are unusable.
+    #[error("{0}")]
+    Settings(String),
+    /// iceoryx2 refused (permissions, a service of another version, ...).
+    #[error("iceoryx2: {0}")]
+    Ipc(String),
+    /// Another daemon already serves the service.
+    #[error(
+        "another cliffd already serves '{0}' (stop it, or use another --service or --prefix)"
+    )]
+    AlreadyServed(String),
+}
+
+struct LoadedMap {
+    name: String,
+    wire: [u8; MAP_NAME_BYTES],
+    path: Option<PathBuf>,
+    map: CliffMap,
+}
+
+type ReloadResult = Vec<(usize, Result<CliffMap, String>)>;
+
+type Port = Server<ipc::Service, [Observation], RequestHeader, [u32], ResponseHeader>;
+type Active = ActiveRequest<ipc::Service, [Observation], RequestHeader, [u32], ResponseHeader>;
+
+/// Counters of a running daemon.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Stats {
+    /// Requests answered with a batch.
+    pub served: u64,
+    /// Requests answered with a rejection.
+    pub rejected: u64,
+    /// Responses that could not be sent (client gone, memory exhausted).
+    pub failed: u64,
+    /// Completed map reloads.
+    pub reloads: u64,
+}
+
+/// The prediction daemon: maps, iceoryx2 ports and reusable buffers.
+pub struct Daemon {
+    settings: Settings,
+    maps: Vec<LoadedMap>,
+    scratch: DecodeScratch,
+    // ports before services before node (drop order)
+    server: Port,
+    wake: Listener<ipc::Service>,
+    notifier: Notifier<ipc::Service>,
+    listener_keys: Vec<(u128, ListenerKey)>,
+    _service: PredictService,
+    _wake_service: iceoryx2::service::port_factory::event::PortFactory<ipc::Service>,
+    _response_events: iceoryx2::service::port_factory::event::PortFactory<ipc::Service>,
+    node: Node<ipc::Service>,
+    reload_rx: Option<mpsc::Receiver<ReloadResult>>,
+    reload_waiters: Vec<Active>,
+    reload_again: bool,
+    stats: Stats,
+}
+
+fn ipc(what: &str, e: impl std::fmt::Debug) -> StartError {
+    StartError::Ipc(format!("{what}: {e:?}"))
+}
+
+impl Daemon {
+    /// Load the maps and create the iceoryx2 service and ports.
+    pub fn new(settings: Settings) -> Result<Daemon, StartError> {
+        let l = settings.limits;
+        if l.max_agents == 0 || l.max_k == 0 || l.max_steps == 0 || l.max_history == 0 {
+            return Err(StartError::Settings(
+                "limits on agents, k, steps and history must be at least 1".into(),
+            ));
+        }
+        if l.max_history > protocol::MAX_HISTORY {
+            return Err(StartError::Settings(format!(
+                "max history {} is above the protocol's {}",
+                l.max_history,
+                protocol::MAX_HISTORY
+            )));
+        }
+        if settings.max_clients == 0 || settings.max_active_requests == 0 {
+            return Err(StartError::Settings(
+                "max clients and max active requests must be at least 1".into(),
+            ));
+        }
+        let words = l.max_payload_words();
+        if words > (1 << 28) {
+            return Err(StartError::Settings(format!(
+                "agents x k x steps = {} x {} x {} makes responses of {} MB; lower a limit",
+                l.max_agents,
+                l.max_k,
+                l.max_steps,
+                words * 4 >> 20
+            )));
+        }
+        let maps = load_maps(&settings.maps)?;
+
+        let config = cliff_client::iceoryx_config(settings.prefix.as_deref())
+            .map_err(StartError::Settings)?;
+        let node = NodeBuilder::new()
+            .config(&config)
+            .signal_handling_mode(SignalHandlingMode::Disabled)
+            .create::<ipc::Service>()
+            .map_err(|e| ipc("cannot create node", e))?;
+        let name = |s: &str| {
+            ServiceName::new(s)
+                .map_err(|e| StartError::Settings(format!("service name '{s}': {e:?}")))
+        };
+        let clients = settings.max_clients;
+        let nodes = clients + 4;
+        let service = node
+            .service_builder(&name(&settings.service)?)
+            .request_response::<[Observation], [u32]>()
+            .request_user_header::<RequestHeader>()
+            .response_user_header::<ResponseHeader>()
+            .max_clients(clients)
+            .max_servers(2)
+            .max_nodes(nodes)
+            .max_active_requests_per_client(settings.max_active_requests)
+            .max_loaned_requests(1)
+            .max_response_buffer_size(1)
+            .max_borrowed_responses_per_pending_response(1)
+            .open_or_create()
+            .map_err(|e| ipc("cannot open or create the service", e))?;
+        if service.dynamic_config().number_of_servers() > 0 {
+            return Err(StartError::AlreadyServed(settings.service.clone()));
+        }
+        let wake_service = node
+            .service_builder(&name(&request_event_name(&settings.service))?)
+            .event()
+            .max_notifiers(clients + 2)
+            .max_listeners(2)
+            .max_nodes(nodes)
+            .open_or_create()
+            .map_err(|e| ipc("cannot open or create the request event service", e))?;
+        let response_events = node
+            .service_builder(&name(&response_event_name(&settings.service))?)
+            .event()
+            .max_notifiers(2)
+            .max_listeners(clients + 2)
+            .max_nodes(nodes)
+            .open_or_create()
+            .map_err(|e| ipc("cannot open or create the response event service", e))?;
+        let server = service
+            .server_builder()
+            .initial_max_slice_len(words)
+            .max_loaned_responses_per_request(1)
+            .create()
+            .map_err(|e| ipc("cannot create the server port", e))?;
+        let wake = wake_service
+            .listener_builder()
+            .create()
+            .map_err(|e| ipc("cannot create the request listener", e))?;
+        let notifier = response_events
+            .notifier_builder()
+            .create()
+            .map_err(|e| ipc("cannot create the response notifier", e))?;
+        info!(
+            service = %settings.service,
+            prefix = %config.global.prefix,
+            max_clients = clients,
+            max_active_requests = settings.max_active_requests,
+            max_agents = l.max_agents,
+            max_k = l.max_k,
+            max_steps = l.max_steps,
+            max_history = l.max_history,
+            response_kib = words * 4 / 1024,
+            "iceoryx2 service ready"
+        );
+        Ok(Daemon {
+            scratch: DecodeScratch::new(&l),
+            maps,
+            server,
+            wake,
+            notifier,
+            listener_keys: Vec::with_capacity(clients * 2),
+            _service: service,
+            _wake_service: wake_service,
+            _response_events: response_events,
+            node,
+            reload_rx: None,
+            reload_waiters: Vec::new(),
+            reload_again: false,
+            stats: Stats::default(),
+            settings,
+        })
+    }
+
+    /// The line printed once the daemon serves (contains `ready`).
+    pub fn ready_line(&self) -> String {
+        let maps: Vec<String> = self
+            .maps
+            .iter()
+            .map(|m| format!("{} ({} locations)", m.name, m.map.locations().len()))
+            .collect();
+        format!(
+            "cliffd ready: serving {} on service '{}' (iceoryx2 prefix '{}'), protocol v{}",
+            maps.join(", "),
+            self.settings.service,
+            self.node.config().global.prefix,
+            PROTOCOL_VERSION
+        )
+    }
+
+    /// Counters so far.
+    pub fn stats(&self) -> Stats {
+        self.stats
+    }
+
+    /// Names of the loaded maps.
+    pub fn map_names(&self) -> Vec<String> {
+        self.maps.iter().map(|m| m.name.clone()).collect()
+    }
+
+    /// Serve until `stop` is set. `reload` set (by SIGHUP) starts a map reload and is
+    /// cleared.
+    pub fn run(&mut self, stop: &AtomicBool, reload: &AtomicBool) {
+        let mut last_activity = Instant::now();
+        let mut next_housekeeping = last_activity;
+        let mut next_cleanup = last_activity + Duration::from_secs(1);
+        while !stop.load(Ordering::Relaxed) {
+            let served = self.serve_pending();
+            let now = Instant::now();
+            if served {
+                last_activity = now;
+            }
+            if now >= next_housekeeping {
+                if reload.swap(false, Ordering::Relaxed) {
+                    info!("SIGHUP: reloading maps");
+                    self.start_reload();
+                }
+                self.poll_reload();
+                if now >= next_cleanup {
+                    self.cleanup_dead_nodes();
+                    next_cleanup = now + Duration::from_secs(1);
+                }
+                next_housekeeping = now + Duration::from_millis(50);
+            }
+            if !served {
+                if now.duration_since(last_activity) >= self.settings.idle_spin {
+                    // sleep until a client signals a request (or for housekeeping)
+                    if let Err(e) = self.wake.timed_wait(|_| {}, Duration::from_millis(50)) {
+                        warn!("waiting on the request event failed: {e:?}");
+                        std::thread::sleep(Duration::from_millis(1));
+                    }
+                } else {
+                    std::hint::spin_loop();
+                }
+            }
+        }
+        info!(
+            served = self.stats.served,
+            rejected = self.stats.rejected,
+            failed = self.stats.failed,
+            "shutting down"
+        );
+    }
+
+    /// Answer every request waiting now; true when there was at least one.
+    pub fn serve_pending(&mut self) -> bool {
+        let mut any = false;
+        loop {
+            match self.server.receive() {
+                Ok(Some(req)) => {
+                    any = true;
+                    self.handle(req);
+                }
+                Ok(None) => return any,
+                Err(e) => {
+                    warn!("receiving requests failed: {e:?}");
+                    return any;
+                }
+            }
+        }
+    }
+
+    fn handle(&mut self, req: Active) {
+        let h = *req.user_header();
+        if h.version == PROTOCOL_VERSION && h.kind == KIND_RELOAD {
+            info!(request_id = h.request_id, "reload request");
+            self.start_reload();
+            self.reload_waiters.push(req);
+            return;
+        }
+        let mut rh = ResponseHeader {
+            version: PROTOCOL_VERSION,
+            request_id: h.request_id,
+            ..ResponseHeader::default()
+        };
+        let decoded = self.decode(&h, req.payload());
+        let sent = match decoded {
+            Err(rej) => {
+                debug!(request_id = h.request_id, "rejected: {rej}");
+                self.stats.rejected += 1;
+                rej.write_to(&mut rh);
+                send_empty(&req, rh)
+            }
+            Ok((map, params)) => {
+                let states = self.scratch.states();
+                let (agents, k, steps) = (states.len(), params.k, params.steps());
+                let words = protocol::payload_words(agents, k, steps);
+                match req.loan_slice_uninit(words) {
+                    Ok(resp) => {
+                        let mut resp = resp.write_from_fn(|_| 0u32);
+                        let (pos, lens) = resp.payload_mut().split_at_mut(agents * k * steps * 2);
+                        let out = BatchMut {
+                            positions: bytemuck::cast_slice_mut(pos),
+                            lens,
+                        };
+                        match predict_into(&self.maps[map].map, states, &params, out) {
+                            Ok(()) => {
+                                rh.agents = agents as u32;
+                                rh.k = k as u32;
+                                rh.steps = steps as u32;
+                                *resp.user_header_mut() = rh;
+                                self.stats.served += 1;
+                                resp.send().map_err(|e| format!("{e:?}"))
+                            }
+                            Err(e) => {
+                                // decode_request checks everything predict_into does
+                                error!(request_id = h.request_id, "prediction failed: {e}");
+                                drop(resp);
+                                self.stats.rejected += 1;
+                                internal().write_to(&mut rh);
+                                send_empty(&req, rh)
+                            }
+                        }
+                    }
+                    Err(e) => {
+                        warn!(request_id = h.request_id, words, "cannot loan a response: {e:?}");
+                        self.stats.rejected += 1;
+                        internal().write_to(&mut rh);
+                        send_empty(&req, rh)
+                    }
+                }
+            }
+        };
+        if let Err(e) = sent {
+            self.stats.failed += 1;
+            debug!(request_id = h.request_id, "response not sent (client gone?): {e}");
+        }
+        let lid = (h.listener_id[0] as u128) | ((h.listener_id[1] as u128) << 64);
+        if lid != 0 {
+            self.notify_client(lid);
+        }
+    }
+
+    fn decode(
+        &mut self,
+        h: &RequestHeader,
+        rows: &[Observation],
+    ) -> Result<(usize, cliff::predict::Params), Rejection> {
+        // the version is checked before anything else is read
+        if h.version != PROTOCOL_VERSION {
+            return protocol::decode_request(h, rows, &self.settings.limits, &mut self.scratch)
+                .map(|p| (0, p));
+        }
+        let map = self
+            .maps
+            .iter()
+            .position(|m| m.wire == h.map)
+            .ok_or(Rejection {
+                status: Status::UnknownMap,
+                agent: None,
+                row: None,
+                field: Field::Map,
+                limit: 0,
+            })?;
+        let params = protocol::decode_request(h, rows, &self.settings.limits, &mut self.scratch)?;
+        Ok((map, params))
+    }
+
+    fn notify_client(&mut self, id: u128) {
+        if let Some(i) = self.listener_keys.iter().position(|(l, _)| *l == id) {
+            if self.notifier.notify_single_listener(&self.listener_keys[i].1).is_ok() {
+                return;
+            }
+            self.listener_keys.swap_remove(i);
+        }
+        let mut found = None;
+        self.notifier.for_each_listener(|m, d| {
+            if d.listener_id.value() == id {
+                let _ = m.notify();
+                found = Some(m.listener_key());
+                CallbackProgression::Stop
+            } else {
+                CallbackProgression::Continue
+            }
+        });
+        if let Some(key) = found {
+            if self.listener_keys.len() == self.listener_keys.capacity() {
+                self.listener_keys.clear(); // forget clients that left
+            }
+            self.listener_keys.push((id, key));
+        }
+    }
+
+    fn cleanup_dead_nodes(&mut self) {
+        let state = self.node.try_cleanup_dead_nodes();
+        if state.cleanups > 0 || state.failed_cleanups > 0 {
+            info!(
+                cleaned = state.cleanups,
+                failed = state.failed_cleanups,
+                "removed resources of dead processes"
+            );
+            self.listener_keys.clear();
+        }
+    }
+
+    /// Start reloading every map from its file in a background thread (no-op for the
+    /// built-in scene). A reload already running is followed by another one.
+    pub fn start_reload(&mut self) {
+        if self.reload_rx.is_some() {
+            self.reload_again = true;
+            return;
+        }
+        let jobs: Vec<(usize, String, PathBuf)> = self
+            .maps
+            .iter()
+            .enumerate()
+            .filter_map(|(i, m)| m.path.clone().map(|p| (i, m.name.clone(), p)))
+            .collect();
+        let (tx, rx) = mpsc::channel();
+        let spawned = std::thread::Builder::new()
+            .name("cliffd-reload".into())
+            .spawn(move || {
+                let results: ReloadResult = jobs
+                    .into_iter()
+                    .map(|(i, name, path)| {
+                        let r = CliffMap::load(&path).map_err(|e| format!("map '{name}': {e}"));
+                        (i, r)
+                    })
+                    .collect();
+                let _ = tx.send(results);
+            });
+        match spawned {
+            Ok(_) => self.reload_rx = Some(rx),
+            Err(e) => {
+                error!("cannot start the reload thread: {e}");
+                self.finish_reload(Some("cannot start the reload thread".into()));
+            }
+        }
+    }
+
+    /// Apply a finished reload, if any; true when one was applied.
+    pub fn poll_reload(&mut self) -> bool {
+        let Some(rx) = &self.reload_rx else {
+            return false;
+        };
+        let results = match rx.try_recv() {
+            Ok(r) => r,
+            Err(mpsc::TryRecvError::Empty) => return false,
+            Err(mpsc::TryRecvError::Disconnected) => {
+                vec![] // the thread died; nothing to apply
+            }
+        };
+        self.reload_rx = None;
+        let mut first_error = None;
+        for (i, r) in results {
+            match r {
+                Ok(map) => {
+                    info!(map = %self.maps[i].name, locations = map.locations().len(), "map reloaded");
+                    self.maps[i].map = map;
+                }
+                Err(e) => {
+                    error!("reload failed, keeping the old map: {e}");
+                    first_error.get_or_insert(e);
+                }
+            }
+        }
+        self.stats.reloads += 1;
+        self.finish_reload(first_error);
+        if std::mem::take(&mut self.reload_again) {
+            self.start_reload();
+        }
+        true
+    }
+
+    fn finish_reload(&mut self, error: Option<String>) {
+        for req in std::mem::take(&mut self.reload_waiters) {
+            let h = *req.user_header();
+            let mut rh = ResponseHeader {
+                version: PROTOCOL_VERSION,
+                request_id: h.request_id,
+                ..ResponseHeader::default()
+            };
+            if error.is_some() {
+                Rejection {
+                    status: Status::ReloadFailed,
+                    ..internal()
+                }
+                .write_to(&mut rh);
+            }
+            let _ = send_empty(&req, rh);
+            let lid = (h.listener_id[0] as u128) | ((h.listener_id[1] as u128) << 64);
+            if lid != 0 {
+                self.notify_client(lid);
+            }
+        }
+    }
+}
+
+fn internal() -> Rejection {
+    Rejection {
+        status: Status::Internal,
+        agent: None,
+        row: None,
+        field: Field::None,
+        limit: 0,
+    }
+}
+
+fn send_empty(req: &Active, rh: ResponseHeader) -> Result<(), String> {
+    let resp = req.loan_slice_uninit(0).map_err(|e| format!("{e:?}"))?;
+    let mut resp = resp.write_from_fn(|_| 0u32);
+    *resp.user_header_mut() = rh;
+    resp.send().map_err(|e| format!("{e:?}"))
+}
+
+fn load_maps(specs: &[MapSpec]) -> Result<Vec<LoadedMap>, StartError> {
+    if specs.is_empty() {
+        return Ok(vec![LoadedMap {
+            name: "demo".into(),
+            wire: protocol::encode_map_name("demo").expect("valid name"),
+            path: None,
+            map: CliffMap::demo(),
+        }]);
+    }
+    let mut out: Vec<LoadedMap> = Vec::with_capacity(specs.len());
+    for s in specs {
+        if out.iter().any(|m| m.name == s.name) {
+            return Err(StartError::Settings(format!(
+                "map name '{}' is given twice",
+                s.name
+            )));
+        }
+        let wire = protocol::encode_map_name(&s.name).map_err(StartError::Settings)?;
+        let map = match &s.path {
+            Some(p) => CliffMap::load(p).map_err(|source| StartError::Map {
+                name: s.name.clone(),
+                source,
+            })?,
+            None => CliffMap::demo(),
+        };
+        info!(map = %s.name, path = ?s.path, locations = map.locations().len(), "map loaded");
+        out.push(LoadedMap {
+            name: s.name.clone(),
+            wire,
+            path: s.path.clone(),
+            map,
+        });
+    }
+    Ok(out)
+}
