@@ -50,7 +50,7 @@ use std::time::{Duration, Instant};
 
 use cliff::predict::Params;
 use iceoryx2::port::client::Client as IoxClient;
-use iceoryx2::port::listener::Listener;
+use iceoryx2::port::listener::{Listener, ListenerWaitError};
 use iceoryx2::port::notifier::Notifier;
 use iceoryx2::prelude::*;
 use iceoryx2::response::Response;
@@ -497,7 +497,9 @@ impl Client {
         *h = *header;
         h.request_id = id;
         h.listener_id = if notify { self.listener_id } else { [0, 0] };
-        let pending = request.send().map_err(|e| ipc_err("cannot send request", e))?;
+        let pending = request
+            .send()
+            .map_err(|e| ipc_err("cannot send request", e))?;
         if pending.number_of_server_connections() == 0 {
             return Err(Error::NoDaemon {
                 service: self.service_name.clone(),
@@ -548,8 +550,9 @@ impl Client {
             match spin_until {
                 Some(t) if now >= t => {
                     let wait = (end - now).min(next_liveness - now);
-                    if let Err(e) = self.listener.timed_wait(|_| {}, wait) {
-                        return Err(ipc_err("cannot wait for the response event", e));
+                    match self.listener.timed_wait(|_| {}, wait) {
+                        Ok(_) | Err(ListenerWaitError::InterruptSignal) => {}
+                        Err(e) => return Err(ipc_err("cannot wait for the response event", e)),
                     }
                 }
                 _ => std::hint::spin_loop(),
@@ -618,7 +621,10 @@ impl fmt::Debug for Prediction<'_> {
     }
 }
 
-pub(crate) fn split_payload<'a>(h: &ResponseHeader, payload: &'a [u32]) -> (&'a [[f32; 2]], &'a [u32]) {
+pub(crate) fn split_payload<'a>(
+    h: &ResponseHeader,
+    payload: &'a [u32],
+) -> (&'a [[f32; 2]], &'a [u32]) {
     let points = (h.agents as usize) * (h.k as usize) * (h.steps as usize);
     let (pos, lens) = payload.split_at(points * 2);
     (bytemuck::cast_slice(pos), lens)
@@ -711,7 +717,7 @@ impl<'p> AgentPrediction<'p> {
     }
 
     /// Iterate over the samples (each a slice of valid positions).
-    pub fn samples(&self) -> impl ExactSizeIterator<Item = &'p [[f32; 2]]> + 'p {
+    pub fn samples(&self) -> impl ExactSizeIterator<Item = &'p [[f32; 2]]> + use<'p> {
         let this = *self;
         (0..self.lens.len()).map(move |s| this.sample(s))
     }

@@ -159,7 +159,10 @@ pub fn encode_map_name(name: &str) -> Result<[u8; MAP_NAME_BYTES], String> {
         ));
     }
     if b.contains(&0) {
-        return Err(format!("map name '{}' holds a NUL byte", name.escape_debug()));
+        return Err(format!(
+            "map name '{}' holds a NUL byte",
+            name.escape_debug()
+        ));
     }
     let mut out = [0u8; MAP_NAME_BYTES];
     out[..b.len()].copy_from_slice(b);

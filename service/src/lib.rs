@@ -20,12 +20,12 @@ use std::time::{Duration, Instant};
 use cliff::map::CliffMap;
 use cliff::predict::{BatchMut, predict_into};
 use cliff_client::protocol::{
-    self, DecodeScratch, Field, KIND_RELOAD, Limits, MAP_NAME_BYTES, Observation,
-    PROTOCOL_VERSION, Rejection, RequestHeader, ResponseHeader, Status,
+    self, DecodeScratch, Field, KIND_RELOAD, Limits, MAP_NAME_BYTES, Observation, PROTOCOL_VERSION,
+    Rejection, RequestHeader, ResponseHeader, Status,
 };
 use cliff_client::{PredictService, request_event_name, response_event_name};
 use iceoryx2::active_request::ActiveRequest;
-use iceoryx2::port::listener::Listener;
+use iceoryx2::port::listener::{Listener, ListenerWaitError};
 use iceoryx2::port::notifier::{ListenerKey, Notifier};
 use iceoryx2::port::server::Server;
 use iceoryx2::prelude::*;
@@ -109,9 +109,7 @@ pub enum StartError {
     #[error("iceoryx2: {0}")]
     Ipc(String),
     /// Another daemon already serves the service.
-    #[error(
-        "another cliffd already serves '{0}' (stop it, or use another --service or --prefix)"
-    )]
+    #[error("another cliffd already serves '{0}' (stop it, or use another --service or --prefix)")]
     AlreadyServed(String),
 }
 
@@ -192,7 +190,7 @@ impl Daemon {
                 l.max_agents,
                 l.max_k,
                 l.max_steps,
-                words * 4 >> 20
+                (words * 4) >> 20
             )));
         }
         let maps = load_maps(&settings.maps)?;
@@ -341,9 +339,12 @@ impl Daemon {
             if !served {
                 if now.duration_since(last_activity) >= self.settings.idle_spin {
                     // sleep until a client signals a request (or for housekeeping)
-                    if let Err(e) = self.wake.timed_wait(|_| {}, Duration::from_millis(50)) {
-                        warn!("waiting on the request event failed: {e:?}");
-                        std::thread::sleep(Duration::from_millis(1));
+                    match self.wake.timed_wait(|_| {}, Duration::from_millis(50)) {
+                        Ok(_) | Err(ListenerWaitError::InterruptSignal) => {}
+                        Err(e) => {
+                            warn!("waiting on the request event failed: {e:?}");
+                            std::thread::sleep(Duration::from_millis(1));
+                        }
                     }
                 } else {
                     std::hint::spin_loop();
@@ -429,7 +430,10 @@ impl Daemon {
                         }
                     }
                     Err(e) => {
-                        warn!(request_id = h.request_id, words, "cannot loan a response: {e:?}");
+                        warn!(
+                            request_id = h.request_id,
+                            words, "cannot loan a response: {e:?}"
+                        );
                         self.stats.rejected += 1;
                         internal().write_to(&mut rh);
                         send_empty(&req, rh)
@@ -439,7 +443,10 @@ impl Daemon {
         };
         if let Err(e) = sent {
             self.stats.failed += 1;
-            debug!(request_id = h.request_id, "response not sent (client gone?): {e}");
+            debug!(
+                request_id = h.request_id,
+                "response not sent (client gone?): {e}"
+            );
         }
         let lid = (h.listener_id[0] as u128) | ((h.listener_id[1] as u128) << 64);
         if lid != 0 {
@@ -474,7 +481,11 @@ impl Daemon {
 
     fn notify_client(&mut self, id: u128) {
         if let Some(i) = self.listener_keys.iter().position(|(l, _)| *l == id) {
-            if self.notifier.notify_single_listener(&self.listener_keys[i].1).is_ok() {
+            if self
+                .notifier
+                .notify_single_listener(&self.listener_keys[i].1)
+                .is_ok()
+            {
                 return;
             }
             self.listener_keys.swap_remove(i);

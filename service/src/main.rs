@@ -86,6 +86,7 @@ fn main() -> ExitCode {
     tracing_subscriber::fmt()
         .with_env_filter(filter)
         .with_writer(std::io::stderr)
+        .with_ansi(std::io::IsTerminal::is_terminal(&std::io::stderr()))
         .init();
     iceoryx2::prelude::set_log_level_from_env_or(iceoryx2::prelude::LogLevel::Error);
 
@@ -94,12 +95,11 @@ fn main() -> ExitCode {
     use signal_hook::consts::{SIGHUP, SIGINT, SIGTERM};
     for (sig, flag) in [(SIGINT, &stop), (SIGTERM, &stop), (SIGHUP, &reload)] {
         // a second SIGINT/SIGTERM while shutting down exits at once
-        if sig != SIGHUP {
-            if let Err(e) = signal_hook::flag::register_conditional_shutdown(sig, 1, flag.clone())
-            {
-                eprintln!("error: cannot install the signal handler: {e}");
-                return ExitCode::FAILURE;
-            }
+        if sig != SIGHUP
+            && let Err(e) = signal_hook::flag::register_conditional_shutdown(sig, 1, flag.clone())
+        {
+            eprintln!("error: cannot install the signal handler: {e}");
+            return ExitCode::FAILURE;
         }
         if let Err(e) = signal_hook::flag::register(sig, flag.clone()) {
             eprintln!("error: cannot install the signal handler: {e}");
@@ -129,11 +129,11 @@ fn main() -> ExitCode {
             return ExitCode::FAILURE;
         }
     };
-    if let Some(p) = &args.pid_file {
-        if let Err(e) = std::fs::write(p, format!("{}\n", std::process::id())) {
-            eprintln!("error: cannot write the pid file {}: {e}", p.display());
-            return ExitCode::FAILURE;
-        }
+    if let Some(p) = &args.pid_file
+        && let Err(e) = std::fs::write(p, format!("{}\n", std::process::id()))
+    {
+        eprintln!("error: cannot write the pid file {}: {e}", p.display());
+        return ExitCode::FAILURE;
     }
     println!("{}", daemon.ready_line());
     let _ = std::io::stdout().flush();

@@ -191,7 +191,7 @@ pub fn demo_request(i: u64, agents: usize, k: usize, method: Method) -> Request 
     for a in 0..agents {
         let y = -2.5 + ((i as usize + a) % 6) as f64;
         let x0 = -12.0 + ((i as usize * 7 + a * 3) % 10) as f64;
-        let with_velocity = (i as usize + a) % 2 == 0;
+        let with_velocity = (i as usize + a).is_multiple_of(2);
         r.add_agent((0..5).map(|j| {
             let t = 100.0 + 0.4 * j as f64;
             let x = x0 + 0.5 * j as f64;
@@ -205,6 +205,9 @@ pub fn demo_request(i: u64, agents: usize, k: usize, method: Method) -> Request 
     r
 }
 
+/// Shape and bit patterns of a batch.
+pub type Answer = ((usize, usize, usize), (Vec<u32>, Vec<u32>));
+
 /// Bit patterns of every position and the lengths: what "the same numbers" means.
 pub fn bits(positions: &[[f32; 2]], lens: &[u32]) -> (Vec<u32>, Vec<u32>) {
     (
@@ -214,10 +217,146 @@ pub fn bits(positions: &[[f32; 2]], lens: &[u32]) -> (Vec<u32>, Vec<u32>) {
 }
 
 /// The in-process answer to `request` on `map`.
-pub fn local_bits(map: &CliffMap, request: &Request) -> ((usize, usize, usize), (Vec<u32>, Vec<u32>)) {
+pub fn local_bits(map: &CliffMap, request: &Request) -> Answer {
     let mut lp = cliff_client::LocalPredictor::default();
     let b = lp
         .predict(map, request.header(), request.rows())
         .expect("request is valid in-process");
     (b.shape(), bits(b.positions(), b.lens()))
+}
+
+/// Path of a file in the shared data folder beside the checkout.
+pub fn shared_data(rel: &str) -> PathBuf {
+    PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../shared/data")).join(rel)
+}
+
+/// A client process: this test binary run again with `CLIFF_TEST_CHILD` set, executing
+/// the ignored test `name`. Killed (SIGKILL) when dropped.
+pub struct ChildClient {
+    pub child: Child,
+    lines: mpsc::Receiver<String>,
+}
+
+impl ChildClient {
+    pub fn spawn(name: &str, spec: &str) -> ChildClient {
+        let mut child = Command::new(std::env::current_exe().expect("test exe"))
+            .args([
+                name,
+                "--exact",
+                "--ignored",
+                "--nocapture",
+                "--test-threads=1",
+            ])
+            .env("CLIFF_TEST_CHILD", spec)
+            .stdout(Stdio::piped())
+            .stderr(Stdio::inherit())
+            .spawn()
+            .expect("spawn child client");
+        let stdout = child.stdout.take().expect("stdout");
+        let (tx, rx) = mpsc::channel();
+        std::thread::spawn(move || {
+            for line in BufReader::new(stdout).lines().map_while(Result::ok) {
+                if tx.send(line).is_err() {
+                    break;
+                }
+            }
+        });
+        ChildClient { child, lines: rx }
+    }
+
+    /// Wait for a stdout line containing `what`; panics after `limit`.
+    pub fn wait_line(&self, what: &str, limit: Duration) -> String {
+        let end = Instant::now() + limit;
+        loop {
+            let left = end.saturating_duration_since(Instant::now());
+            match self.lines.recv_timeout(left) {
+                Ok(l) if l.contains(what) => return l,
+                Ok(_) => continue,
+                Err(_) => panic!("child client did not print '{what}' within {limit:?}"),
+            }
+        }
+    }
+
+    /// Wait for the exit, within `limit`.
+    pub fn wait_exit(&mut self, limit: Duration) -> std::process::ExitStatus {
+        let end = Instant::now() + limit;
+        while Instant::now() < end {
+            if let Ok(Some(s)) = self.child.try_wait() {
+                return s;
+            }
+            std::thread::sleep(Duration::from_millis(10));
+        }
+        panic!("child client did not exit within {limit:?}");
+    }
+
+    pub fn kill9(&mut self) {
+        // SAFETY: kill(2) on our own child's pid
+        let r = unsafe { libc_kill(self.child.id() as i32, SIGKILL) };
+        assert_eq!(r, 0);
+        let _ = self.child.wait();
+    }
+}
+
+impl Drop for ChildClient {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+/// The child side: `CLIFF_TEST_CHILD` = `prefix,requests,agents,wait,tag`. Sends the
+/// requests, checks each answer against the in-process result and the request ids for
+/// being consecutive, prints `CHILD <tag> started` and `CHILD <tag> done <n>`.
+pub fn run_child_client() {
+    let Ok(spec) = std::env::var("CLIFF_TEST_CHILD") else {
+        return;
+    };
+    let f: Vec<&str> = spec.split(',').collect();
+    let (prefix, requests, agents, wait, tag) = (
+        f[0].to_string(),
+        f[1].parse::<u64>().unwrap(),
+        f[2].parse::<usize>().unwrap(),
+        f[3].parse::<WaitMode>().unwrap(),
+        f[4],
+    );
+    let ns = Namespace { prefix };
+    let mut client = ns.connect(wait);
+    std::mem::forget(ns); // the parent owns the namespace's files
+    let map = CliffMap::demo();
+    let base = tag.bytes().map(u64::from).sum::<u64>() * 1000;
+    let mut last_id = None;
+    for i in 0..requests {
+        let req = demo_request(
+            base + i,
+            agents,
+            10,
+            if i % 7 == 3 {
+                Method::Cvm
+            } else {
+                Method::Cliff
+            },
+        );
+        let (shape, want) = local_bits(&map, &req);
+        let p = client
+            .predict(&req)
+            .unwrap_or_else(|e| panic!("child {tag} request {i}: {e}"));
+        assert_eq!(p.shape(), shape, "child {tag} request {i}");
+        assert_eq!(
+            bits(p.positions(), p.lens()),
+            want,
+            "child {tag} request {i}"
+        );
+        if let Some(prev) = last_id {
+            assert_eq!(
+                p.request_id(),
+                u64::wrapping_add(prev, 1),
+                "child {tag}: request ids"
+            );
+        }
+        last_id = Some(p.request_id());
+        if i == 0 {
+            println!("CHILD {tag} started");
+        }
+    }
+    println!("CHILD {tag} done {requests}");
 }
