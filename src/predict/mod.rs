@@ -297,6 +297,11 @@ fn roll_cvm(state: &State, dt: f64, track: &mut [Point]) -> usize {
 }
 
 /// One CLiFF-LHMP sample; returns how many steps it made before leaving the map.
+///
+/// As in the reference: the direction is sampled at the current position, the agent
+/// moves, and a new position with no map location near it ends the sample and is not
+/// part of it. (Its location query is carried over as the next step's sampling location,
+/// so each step queries the map once.)
 #[inline]
 fn roll_cliff(
     map: &CliffMap,
@@ -309,14 +314,14 @@ fn roll_cliff(
     let mut p = state.position;
     let mut theta = wrap_2pi(state.heading);
     let mut u = DVec2::from_angle(theta);
+    let Some(mut loc) = map.best_near(p, params.radius) else {
+        return 0;
+    };
     for (i, out) in track.iter_mut().enumerate() {
-        let Some(loc) = map.best_near(p, params.radius) else {
-            return i;
-        };
         let ts: f64 = map.direction_at(loc).sample(rng);
-        let us = DVec2::from_angle(ts);
         match params.heading {
             HeadingRule::CircularMean => {
+                let us = DVec2::from_angle(ts);
                 // |shortest angle| between the sample and the heading, in [0, pi].
                 let delta = us.dot(u).clamp(-1.0, 1.0).acos();
                 let lambda = (-params.beta * delta * delta).exp();
@@ -337,6 +342,10 @@ fn roll_cliff(
             }
         }
         p += u * dist;
+        match map.best_near(p, params.radius) {
+            Some(next) => loc = next,
+            None => return i,
+        }
         *out = [p.x as f32, p.y as f32];
     }
     track.len()
@@ -432,11 +441,12 @@ mod tests {
             &mut b,
         )
         .unwrap();
-        // at x=0 and x=1 the location is near; from x=2 on it is not: 2 steps
+        // x = 0 and x = 1 have the location near; x = 2 has not, so the sample ends
+        // after one step and x = 2 is not part of it (the reference's rule)
         for s in 0..3 {
-            assert_eq!(b.len(0, s), 2);
-            assert!((b.sample(0, s)[1][0] - 2.0).abs() < 1e-3);
-            assert!(b.full_sample(0, s)[2][0].is_nan());
+            assert_eq!(b.len(0, s), 1);
+            assert!((b.sample(0, s)[0][0] - 1.0).abs() < 1e-3);
+            assert!(b.full_sample(0, s)[1][0].is_nan());
         }
         // starting off the map: nothing
         assert_eq!(b.len(1, 0), 0);

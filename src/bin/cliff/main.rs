@@ -2,6 +2,7 @@
 //!
 //! A thin layer over the `cliff` library: each subcommand group lives in its own module.
 
+mod eval_cmd;
 mod map_cmd;
 
 use clap::{Parser, Subcommand};
@@ -22,12 +23,22 @@ enum Command {
     /// Inspect, convert, build, score and update CLiFF-maps.
     #[command(subcommand)]
     Map(map_cmd::MapCommand),
+    /// Evaluate methods on trajectory files: ADE/FDE, top-k, per horizon, over seeds.
+    ///
+    /// Example (THÖR1, parity with the published implementation):
+    /// cliff eval --map ../shared/data/thor1/cliffmap.csv --tracks ../shared/data/thor1/exp-1-run-2.csv
+    ///   --format thor --protocol reference --radius 0.7071 --seeds 20 --out thor1-eval
+    Eval(eval_cmd::EvalArgs),
+    /// Predict the samples of one person of a trajectory file and write them as CSV.
+    Predict(eval_cmd::PredictArgs),
 }
 
 fn main() -> std::process::ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Map(c) => map_cmd::run(c),
+        Command::Eval(a) => eval_cmd::run_eval(a),
+        Command::Predict(a) => eval_cmd::run_predict(a),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

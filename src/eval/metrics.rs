@@ -1,0 +1,154 @@
+//! Displacement errors of sampled trajectories against the ground truth.
+//!
+//! For one person and step `j` (horizon `j * dt`), over the samples that reached step
+//! `j`: ADE is the mean over samples of the mean error over steps `1..=j`, FDE the mean
+//! error at step `j`; minADE and minFDE (top-k) are the smallest per-sample values.
+
+use glam::DVec2;
+
+use super::protocol::Case;
+use crate::predict::Point;
+
+/// Errors of one person at one step.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StepErrors {
+    /// Mean over reaching samples of the average displacement up to this step.
+    pub ade: f64,
+    /// Mean over reaching samples of the displacement at this step.
+    pub fde: f64,
+    /// Smallest average displacement of a reaching sample.
+    pub min_ade: f64,
+    /// Smallest final displacement of a reaching sample.
+    pub min_fde: f64,
+    /// How many samples reached this step.
+    pub reaching: u32,
+}
+
+/// Reusable scratch space for [`person_errors`].
+#[derive(Debug, Default, Clone)]
+pub struct Scratch {
+    truth: Vec<Option<DVec2>>,
+    sum_ade: Vec<f64>,
+    sum_fde: Vec<f64>,
+    min_ade: Vec<f64>,
+    min_fde: Vec<f64>,
+    reaching: Vec<u32>,
+}
+
+/// Ground truth at each predicted step of `case` (`None` past the last row).
+pub fn truth_per_step(case: &Case, dt: f64, out: &mut Vec<Option<DVec2>>) {
+    out.clear();
+    out.extend((1..=case.steps).map(|j| case.truth_at(case.start.time + j as f64 * dt)));
+}
+
+/// Errors at every step `1..=case.steps` of `k` samples, given as `k` slices of valid
+/// positions. Writes one entry per step into `out` (`None` where no sample reached the
+/// step or the ground truth has ended).
+pub fn person_errors<'a>(
+    case: &Case,
+    dt: f64,
+    samples: impl Iterator<Item = &'a [Point]>,
+    scratch: &mut Scratch,
+    out: &mut Vec<Option<StepErrors>>,
+) {
+    let n = case.steps;
+    truth_per_step(case, dt, &mut scratch.truth);
+    for v in [&mut scratch.sum_ade, &mut scratch.sum_fde] {
+        v.clear();
+        v.resize(n, 0.0);
+    }
+    for v in [&mut scratch.min_ade, &mut scratch.min_fde] {
+        v.clear();
+        v.resize(n, f64::INFINITY);
+    }
+    scratch.reaching.clear();
+    scratch.reaching.resize(n, 0);
+    for sample in samples {
+        let mut cum = 0.0;
+        for (j, p) in sample.iter().take(n).enumerate() {
+            // A predicted time after the last row ends this sample's error list.
+            let Some(truth) = scratch.truth[j] else { break };
+            let e = DVec2::new(p[0] as f64, p[1] as f64).distance(truth);
+            cum += e;
+            let ade = cum / (j + 1) as f64;
+            scratch.sum_ade[j] += ade;
+            scratch.sum_fde[j] += e;
+            scratch.min_ade[j] = scratch.min_ade[j].min(ade);
+            scratch.min_fde[j] = scratch.min_fde[j].min(e);
+            scratch.reaching[j] += 1;
+        }
+    }
+    out.clear();
+    out.extend((0..n).map(|j| {
+        let r = scratch.reaching[j];
+        (r > 0).then(|| StepErrors {
+            ade: scratch.sum_ade[j] / r as f64,
+            fde: scratch.sum_fde[j] / r as f64,
+            min_ade: scratch.min_ade[j],
+            min_fde: scratch.min_fde[j],
+            reaching: r,
+        })
+    }));
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::eval::dataset::Row;
+    use crate::motion::State;
+
+    #[test]
+    fn errors_of_two_samples() {
+        // truth walks east 1 m/s; sample A is exact, sample B is 1 m north, and stops after 2 steps
+        let future: Vec<Row> = (0..6)
+            .map(|i| Row {
+                t: i as f64,
+                position: DVec2::new(i as f64, 0.0),
+                speed: 1.0,
+                angle: 0.0,
+            })
+            .collect();
+        let case = Case {
+            id: 1,
+            observed: vec![],
+            start: State {
+                position: DVec2::ZERO,
+                speed: 1.0,
+                heading: 0.0,
+                time: 0.0,
+            },
+            future,
+            horizon: 5.0,
+            steps: 5,
+        };
+        let a: Vec<Point> = (1..=5).map(|i| [i as f32, 0.0]).collect();
+        let b: Vec<Point> = (1..=2).map(|i| [i as f32, 1.0]).collect();
+        let mut out = vec![];
+        person_errors(
+            &case,
+            1.0,
+            [a.as_slice(), b.as_slice()].into_iter(),
+            &mut Scratch::default(),
+            &mut out,
+        );
+        let s1 = out[0].unwrap();
+        assert_eq!(
+            (s1.ade, s1.fde, s1.min_ade, s1.min_fde, s1.reaching),
+            (0.5, 0.5, 0.0, 0.0, 2)
+        );
+        let s3 = out[2].unwrap();
+        assert_eq!((s3.ade, s3.reaching), (0.0, 1));
+        // ground truth ends at t = 5: step 5 has a value, nothing beyond
+        assert!(out[4].is_some());
+        assert_eq!(out.len(), 5);
+        // no sample reached: None
+        person_errors(
+            &case,
+            1.0,
+            std::iter::empty(),
+            &mut Scratch::default(),
+            &mut out,
+        );
+        assert!(out.iter().all(Option::is_none));
+    }
+}

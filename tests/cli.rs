@@ -1,0 +1,259 @@
+//! The `cliff` command line on real data: the contracts other tools rely on.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn data(p: &str) -> String {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../shared/data")
+        .join(p)
+        .display()
+        .to_string()
+}
+
+fn cliff(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_cliff"))
+        .args(args)
+        .output()
+        .expect("run cliff")
+}
+
+fn tmp(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("cliff-cli-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn text(o: &Output) -> (String, String) {
+    (
+        String::from_utf8_lossy(&o.stdout).into_owned(),
+        String::from_utf8_lossy(&o.stderr).into_owned(),
+    )
+}
+
+#[test]
+fn eval_contract_writes_summary_and_per_person() {
+    let out = tmp("eval");
+    let o = cliff(&[
+        "eval",
+        "--map",
+        &data("thor1/cliffmap.csv"),
+        "--tracks",
+        &data("thor1/exp-1-run-2.csv"),
+        "--format",
+        "thor",
+        "--protocol",
+        "reference",
+        "--obs",
+        "3.2",
+        "--dt",
+        "0.4",
+        "--horizon",
+        "12",
+        "--radius",
+        "0.7071",
+        "--beta",
+        "1",
+        "--k",
+        "20",
+        "--seeds",
+        "3",
+        "--methods",
+        "cliff,cvm",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let (stdout, stderr) = text(&o);
+    assert!(o.status.success(), "{stderr}");
+    assert!(stdout.contains("62 of 87 people"), "{stdout}");
+    for h in ["2.0s", "4.0s", "12.0s"] {
+        assert!(stdout.contains(h), "{stdout}");
+    }
+    let summary = std::fs::read_to_string(out.join("summary.csv")).unwrap();
+    let mut lines = summary.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    for col in [
+        "method", "horizon", "people", "ade", "fde", "min_ade", "min_fde", "ade_sd", "fde_sd",
+    ] {
+        assert!(header.contains(&col), "missing column {col}");
+    }
+    let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
+    let cvm4 = rows
+        .iter()
+        .find(|r| r[0] == "cvm" && r[1] == "4.0")
+        .expect("cvm at 4.0 s");
+    let ade: f64 = cvm4[header.iter().position(|h| *h == "ade").unwrap()]
+        .parse()
+        .unwrap();
+    assert!((ade - 0.5145).abs() < 0.002, "{ade}");
+    // 30 steps of 0.4 s per method
+    assert_eq!(rows.iter().filter(|r| r[0] == "cliff").count(), 30);
+    let per_person = std::fs::read_to_string(out.join("per_person.csv")).unwrap();
+    assert!(
+        per_person.starts_with("person_id,method,horizon,ade,fde,min_ade,min_fde,samples_reaching")
+    );
+    assert!(per_person.lines().count() > 62);
+}
+
+#[test]
+fn predict_writes_one_persons_samples() {
+    let out = tmp("predict").join("p.csv");
+    let o = cliff(&[
+        "predict",
+        "--map",
+        &data("thor1/cliffmap.csv"),
+        "--tracks",
+        &data("thor1/exp-1-run-2.csv"),
+        "--format",
+        "thor",
+        "--protocol",
+        "reference",
+        "--person",
+        "12007",
+        "--k",
+        "5",
+        "--seed",
+        "7",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let (stdout, stderr) = text(&o);
+    assert!(o.status.success(), "{stderr}");
+    assert!(
+        stdout.contains("person 12007") && stdout.contains("30 steps"),
+        "{stdout}"
+    );
+    let csv = std::fs::read_to_string(&out).unwrap();
+    assert!(csv.starts_with("sample,step,t,x,y\n"));
+    let samples: std::collections::BTreeSet<&str> = csv
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').next().unwrap())
+        .collect();
+    assert!(!samples.is_empty() && samples.len() <= 5);
+    // same seed, same file
+    let out2 = out.with_file_name("p2.csv");
+    let o = cliff(&[
+        "predict",
+        "--map",
+        &data("thor1/cliffmap.csv"),
+        "--tracks",
+        &data("thor1/exp-1-run-2.csv"),
+        "--format",
+        "thor",
+        "--protocol",
+        "reference",
+        "--person",
+        "12007",
+        "--k",
+        "5",
+        "--seed",
+        "7",
+        "--out",
+        out2.to_str().unwrap(),
+    ]);
+    assert!(o.status.success());
+    assert_eq!(std::fs::read_to_string(&out2).unwrap(), csv);
+}
+
+#[test]
+fn map_info_and_convert_round_trip() {
+    let dir = tmp("convert");
+    let o = cliff(&["map", "info", &data("atc/cliffmap-20121024.csv")]);
+    let (stdout, _) = text(&o);
+    assert!(o.status.success());
+    assert!(
+        stdout.contains("locations           1368") && stdout.contains("components          2423"),
+        "{stdout}"
+    );
+    assert!(stdout.contains("grid step           1 m"), "{stdout}");
+    assert!(stdout.contains("covariances clamped"), "{stdout}");
+    let snap = dir.join("atc.cliff");
+    let back = dir.join("atc.csv");
+    assert!(
+        cliff(&[
+            "map",
+            "convert",
+            &data("atc/cliffmap-20121024.csv"),
+            snap.to_str().unwrap()
+        ])
+        .status
+        .success()
+    );
+    assert!(
+        cliff(&[
+            "map",
+            "convert",
+            snap.to_str().unwrap(),
+            back.to_str().unwrap()
+        ])
+        .status
+        .success()
+    );
+    let original = std::fs::read_to_string(data("atc/cliffmap-20121024.csv")).unwrap();
+    let again = std::fs::read_to_string(&back).unwrap();
+    let parse = |t: &str| -> Vec<Vec<f64>> {
+        t.lines()
+            .map(|l| l.split(',').map(|v| v.parse().unwrap()).collect())
+            .collect()
+    };
+    assert_eq!(parse(&original), parse(&again));
+}
+
+#[test]
+fn bad_input_gets_a_clear_error() {
+    let dir = tmp("bad");
+    let bad = dir.join("bad.csv");
+    std::fs::write(
+        &bad,
+        "0,0,1,1,0.1,0,0,0.1,1,1,1\n0,1,1,oops,0.1,0,0,0.1,1,1,1\n",
+    )
+    .unwrap();
+    let o = cliff(&["map", "info", bad.to_str().unwrap()]);
+    let (_, stderr) = text(&o);
+    assert!(!o.status.success());
+    assert!(
+        stderr.contains("bad.csv:2: column 4") && stderr.contains("'oops' is not a number"),
+        "{stderr}"
+    );
+    let o = cliff(&["eval", "--tracks", "/nonexistent/tracks.csv"]);
+    let (_, stderr) = text(&o);
+    assert!(
+        !o.status.success() && stderr.contains("/nonexistent/tracks.csv"),
+        "{stderr}"
+    );
+    let o = cliff(&[
+        "eval",
+        "--tracks",
+        &data("thor1/exp-1-run-2.csv"),
+        "--dt",
+        "0",
+    ]);
+    let (_, stderr) = text(&o);
+    assert!(!o.status.success() && stderr.contains("dt"), "{stderr}");
+    let o = cliff(&[
+        "eval",
+        "--tracks",
+        &data("thor1/exp-1-run-2.csv"),
+        "--methods",
+        "magic",
+    ]);
+    let (_, stderr) = text(&o);
+    assert!(
+        !o.status.success() && stderr.contains("unknown method 'magic'"),
+        "{stderr}"
+    );
+    let o = cliff(&[
+        "predict",
+        "--tracks",
+        &data("thor1/exp-1-run-2.csv"),
+        "--person",
+        "999",
+    ]);
+    let (_, stderr) = text(&o);
+    assert!(
+        !o.status.success() && stderr.contains("person 999 is not in"),
+        "{stderr}"
+    );
+}
