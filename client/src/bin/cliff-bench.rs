@@ -280,6 +280,7 @@ fn summarize(ns: &mut [u64]) -> Summary {
 
 fn main() -> ExitCode {
     let a = Args::parse();
+    iceoryx2::prelude::set_log_level_from_env_or(iceoryx2::prelude::LogLevel::Error);
     match run(a) {
         Ok(code) => code,
         Err(e) => {
