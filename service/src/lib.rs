@@ -75,6 +75,8 @@ pub struct Settings {
     pub max_active_requests: usize,
     /// How long the loop busy-polls after the last request before it sleeps.
     pub idle_spin: Duration,
+    /// How often resources of dead processes (clients killed with SIGKILL) are removed.
+    pub cleanup_interval: Duration,
 }
 
 impl Default for Settings {
@@ -87,6 +89,7 @@ impl Default for Settings {
             max_clients: 16,
             max_active_requests: 2,
             idle_spin: Duration::from_millis(1),
+            cleanup_interval: Duration::from_secs(1),
         }
     }
 }
@@ -317,7 +320,7 @@ impl Daemon {
     pub fn run(&mut self, stop: &AtomicBool, reload: &AtomicBool) {
         let mut last_activity = Instant::now();
         let mut next_housekeeping = last_activity;
-        let mut next_cleanup = last_activity + Duration::from_secs(1);
+        let mut next_cleanup = last_activity + self.settings.cleanup_interval;
         while !stop.load(Ordering::Relaxed) {
             let served = self.serve_pending();
             let now = Instant::now();
@@ -332,7 +335,7 @@ impl Daemon {
                 self.poll_reload();
                 if now >= next_cleanup {
                     self.cleanup_dead_nodes();
-                    next_cleanup = now + Duration::from_secs(1);
+                    next_cleanup = now + self.settings.cleanup_interval;
                 }
                 next_housekeeping = now + Duration::from_millis(50);
             }

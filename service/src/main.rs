@@ -68,6 +68,11 @@ struct Args {
     #[arg(long, default_value_t = 1000)]
     idle_spin_us: u64,
 
+    /// Milliseconds between sweeps that remove the resources of dead clients (killed
+    /// with SIGKILL), freeing their client slots.
+    #[arg(long, default_value_t = 1000)]
+    cleanup_interval_ms: u64,
+
     /// Log filter (tracing env-filter syntax: error, warn, info, debug, cliff_service=debug).
     /// RUST_LOG overrides it.
     #[arg(long, default_value = "info")]
@@ -120,6 +125,7 @@ fn main() -> ExitCode {
         max_clients: args.max_clients,
         max_active_requests: args.max_active_requests,
         idle_spin: Duration::from_micros(args.idle_spin_us),
+        cleanup_interval: Duration::from_millis(args.cleanup_interval_ms.max(1)),
     };
     let mut daemon = match Daemon::new(settings) {
         Ok(d) => d,
