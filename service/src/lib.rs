@@ -18,7 +18,7 @@ use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
 use cliff::map::CliffMap;
-use cliff::predict::{BatchMut, predict_into};
+use cliff::predict::{BatchMut, Params, predict_into};
 use cliff_client::protocol::{
     self, DecodeScratch, Field, KIND_RELOAD, Limits, MAP_NAME_BYTES, Observation, PROTOCOL_VERSION,
     Rejection, RequestHeader, ResponseHeader, Status,
@@ -29,6 +29,7 @@ use iceoryx2::port::listener::{Listener, ListenerWaitError};
 use iceoryx2::port::notifier::{ListenerKey, Notifier};
 use iceoryx2::port::server::Server;
 use iceoryx2::prelude::*;
+use rayon::prelude::*;
 use tracing::{debug, error, info, warn};
 
 /// A map to serve: a name and the file it comes from (`None`: the built-in demo scene).
@@ -75,6 +76,8 @@ pub struct Settings {
     pub max_active_requests: usize,
     /// How long the loop busy-polls after the last request before it sleeps.
     pub idle_spin: Duration,
+    /// Threads predicting requests that arrive together (1: the serving thread alone).
+    pub workers: usize,
     /// How often resources of dead processes (clients killed with SIGKILL) are removed.
     pub cleanup_interval: Duration,
 }
@@ -90,6 +93,7 @@ impl Default for Settings {
             max_active_requests: 2,
             idle_spin: Duration::from_millis(1),
             cleanup_interval: Duration::from_secs(1),
+            workers: 1,
         }
     }
 }
@@ -127,6 +131,7 @@ type ReloadResult = Vec<(usize, Result<CliffMap, String>)>;
 
 type Port = Server<ipc::Service, [Observation], RequestHeader, [u32], ResponseHeader>;
 type Active = ActiveRequest<ipc::Service, [Observation], RequestHeader, [u32], ResponseHeader>;
+type Response = iceoryx2::response_mut::ResponseMut<ipc::Service, [u32], ResponseHeader>;
 
 /// Counters of a running daemon.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
@@ -145,7 +150,10 @@ pub struct Stats {
 pub struct Daemon {
     settings: Settings,
     maps: Vec<LoadedMap>,
-    scratch: DecodeScratch,
+    batch: Vec<Active>,
+    slots: Vec<Slot>,
+    jobs: Vec<Job<'static>>,
+    pool: Option<rayon::ThreadPool>,
     // ports before services before node (drop order)
     server: Port,
     wake: Listener<ipc::Service>,
@@ -180,6 +188,11 @@ impl Daemon {
                 l.max_history,
                 protocol::MAX_HISTORY
             )));
+        }
+        if settings.workers == 0 || settings.workers > 256 {
+            return Err(StartError::Settings(
+                "workers must be between 1 and 256".into(),
+            ));
         }
         if settings.max_clients == 0 || settings.max_active_requests == 0 {
             return Err(StartError::Settings(
@@ -270,8 +283,34 @@ impl Daemon {
             response_kib = words * 4 / 1024,
             "iceoryx2 service ready"
         );
+        // requests taken in one sweep: everything that can be in flight, within reason
+        let batch = (clients * settings.max_active_requests).clamp(1, 64);
+        let pool = if settings.workers > 1 {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(settings.workers)
+                .use_current_thread()
+                .thread_name(|i| format!("cliffd-worker-{i}"))
+                .build()
+                .map_err(|e| StartError::Settings(format!("cannot start the workers: {e}")))?;
+            Some(pool)
+        } else {
+            None
+        };
+        let slots = (0..batch)
+            .map(|_| Slot {
+                header: RequestHeader::default(),
+                scratch: DecodeScratch::new(&l),
+                map: 0,
+                params: Params::default(),
+                response: None,
+                ok: false,
+            })
+            .collect();
         Ok(Daemon {
-            scratch: DecodeScratch::new(&l),
+            batch: Vec::with_capacity(batch),
+            slots,
+            jobs: Vec::with_capacity(batch),
+            pool,
             maps,
             server,
             wake,
@@ -362,88 +401,156 @@ impl Daemon {
         );
     }
 
-    /// Answer every request waiting now; true when there was at least one.
+    /// Answer every request waiting now; true when there was at least one. With more
+    /// than one worker, requests that arrived together are predicted in parallel.
     pub fn serve_pending(&mut self) -> bool {
         let mut any = false;
         loop {
-            match self.server.receive() {
-                Ok(Some(req)) => {
-                    any = true;
-                    self.handle(req);
-                }
-                Ok(None) => return any,
-                Err(e) => {
-                    warn!("receiving requests failed: {e:?}");
-                    return any;
+            // gather what is there (up to the batch size)
+            while self.batch.len() < self.batch.capacity() {
+                match self.server.receive() {
+                    Ok(Some(req)) => {
+                        let h = req.user_header();
+                        if h.version == PROTOCOL_VERSION && h.kind == KIND_RELOAD {
+                            info!(request_id = h.request_id, "reload request");
+                            self.start_reload();
+                            self.reload_waiters.push(req);
+                        } else {
+                            self.batch.push(req);
+                        }
+                    }
+                    Ok(None) => break,
+                    Err(e) => {
+                        warn!("receiving requests failed: {e:?}");
+                        break;
+                    }
                 }
             }
+            if self.batch.is_empty() {
+                return any;
+            }
+            any = true;
+            self.serve_batch();
         }
     }
 
-    fn handle(&mut self, req: Active) {
-        let h = *req.user_header();
-        if h.version == PROTOCOL_VERSION && h.kind == KIND_RELOAD {
-            info!(request_id = h.request_id, "reload request");
-            self.start_reload();
-            self.reload_waiters.push(req);
-            return;
-        }
-        let mut rh = ResponseHeader {
-            version: PROTOCOL_VERSION,
-            request_id: h.request_id,
-            ..ResponseHeader::default()
-        };
-        let decoded = self.decode(&h, req.payload());
-        let sent = match decoded {
-            Err(rej) => {
-                debug!(request_id = h.request_id, "rejected: {rej}");
-                self.stats.rejected += 1;
-                rej.write_to(&mut rh);
-                send_empty(&req, rh)
-            }
-            Ok((map, params)) => {
-                let states = self.scratch.states();
-                let (agents, k, steps) = (states.len(), params.k, params.steps());
-                let words = protocol::payload_words(agents, k, steps);
-                match req.loan_slice_uninit(words) {
-                    Ok(resp) => {
-                        let mut resp = resp.write_from_fn(|_| 0u32);
-                        let (pos, lens) = resp.payload_mut().split_at_mut(agents * k * steps * 2);
-                        let out = BatchMut {
-                            positions: bytemuck::cast_slice_mut(pos),
-                            lens,
-                        };
-                        match predict_into(&self.maps[map].map, states, &params, out) {
-                            Ok(()) => {
-                                rh.agents = agents as u32;
-                                rh.k = k as u32;
-                                rh.steps = steps as u32;
-                                *resp.user_header_mut() = rh;
-                                self.stats.served += 1;
-                                resp.send().map_err(|e| format!("{e:?}"))
-                            }
-                            Err(e) => {
-                                // decode_request checks everything predict_into does
-                                error!(request_id = h.request_id, "prediction failed: {e}");
-                                drop(resp);
-                                self.stats.rejected += 1;
-                                internal().write_to(&mut rh);
-                                send_empty(&req, rh)
-                            }
+    /// Decode, loan, predict (in parallel when there is a pool and more than one
+    /// request), send, notify; empties `self.batch`.
+    fn serve_batch(&mut self) {
+        let reqs = std::mem::take(&mut self.batch);
+        let n = reqs.len();
+        // 1. validate and loan a response for each (rejections are answered here)
+        for (i, req) in reqs.iter().enumerate() {
+            let h = *req.user_header();
+            let slot = &mut self.slots[i];
+            slot.header = h;
+            slot.response = None;
+            let decoded = decode(
+                &self.maps,
+                &self.settings.limits,
+                &h,
+                req.payload(),
+                &mut slot.scratch,
+            );
+            let rejection = match decoded {
+                Err(rej) => Some(rej),
+                Ok((map, params)) => {
+                    slot.map = map;
+                    slot.params = params;
+                    let words = protocol::payload_words(
+                        slot.scratch.states().len(),
+                        params.k,
+                        params.steps(),
+                    );
+                    match req.loan_slice_uninit(words) {
+                        Ok(resp) => {
+                            slot.response = Some(resp.write_from_fn(|_| 0u32));
+                            None
+                        }
+                        Err(e) => {
+                            warn!(
+                                request_id = h.request_id,
+                                words, "cannot loan a response: {e:?}"
+                            );
+                            Some(internal())
                         }
                     }
-                    Err(e) => {
-                        warn!(
-                            request_id = h.request_id,
-                            words, "cannot loan a response: {e:?}"
-                        );
-                        self.stats.rejected += 1;
-                        internal().write_to(&mut rh);
-                        send_empty(&req, rh)
+                }
+            };
+            if let Some(rej) = rejection {
+                debug!(request_id = h.request_id, "rejected: {rej}");
+                self.stats.rejected += 1;
+                let mut rh = response_header(&h);
+                rej.write_to(&mut rh);
+                let sent = send_empty(req, rh);
+                self.after_send(&h, sent);
+            }
+        }
+        // 2. predict straight into the loaned responses
+        let slots = &mut self.slots[..n];
+        let maps = &self.maps;
+        match &self.pool {
+            Some(pool) if slots.iter().filter(|s| s.response.is_some()).count() > 1 => {
+                let mut jobs = recycle(std::mem::take(&mut self.jobs));
+                for s in slots.iter_mut() {
+                    if let Some(resp) = s.response.as_mut() {
+                        jobs.push(Job {
+                            map: &maps[s.map].map,
+                            states: s.scratch.states(),
+                            params: s.params,
+                            out: resp.payload_mut(),
+                            ok: &mut s.ok,
+                        });
+                    }
+                }
+                pool.install(|| jobs.par_iter_mut().for_each(|j| j.run()));
+                self.jobs = recycle(jobs);
+            }
+            _ => {
+                for s in slots.iter_mut() {
+                    if let Some(resp) = s.response.as_mut() {
+                        Job {
+                            map: &maps[s.map].map,
+                            states: s.scratch.states(),
+                            params: s.params,
+                            out: resp.payload_mut(),
+                            ok: &mut s.ok,
+                        }
+                        .run();
                     }
                 }
             }
-        };
+        }
+        // 3. send
+        for (i, req) in reqs.iter().enumerate() {
+            let slot = &mut self.slots[i];
+            let Some(mut resp) = slot.response.take() else {
+                continue; // answered in step 1
+            };
+            let h = slot.header;
+            let mut rh = response_header(&h);
+            let sent = if slot.ok {
+                rh.agents = slot.scratch.states().len() as u32;
+                rh.k = slot.params.k as u32;
+                rh.steps = slot.params.steps() as u32;
+                *resp.user_header_mut() = rh;
+                self.stats.served += 1;
+                resp.send().map_err(|e| format!("{e:?}"))
+            } else {
+                drop(resp);
+                self.stats.rejected += 1;
+                internal().write_to(&mut rh);
+                send_empty(req, rh)
+            };
+            self.after_send(&h, sent);
+        }
+        // dropping the active requests ends them; keep the vector's memory
+        let mut reqs = reqs;
+        reqs.clear();
+        self.batch = reqs;
+    }
+
+    fn after_send(&mut self, h: &RequestHeader, sent: Result<(), String>) {
         if let Err(e) = sent {
             self.stats.failed += 1;
             debug!(
@@ -455,31 +562,6 @@ impl Daemon {
         if lid != 0 {
             self.notify_client(lid);
         }
-    }
-
-    fn decode(
-        &mut self,
-        h: &RequestHeader,
-        rows: &[Observation],
-    ) -> Result<(usize, cliff::predict::Params), Rejection> {
-        // the version is checked before anything else is read
-        if h.version != PROTOCOL_VERSION {
-            return protocol::decode_request(h, rows, &self.settings.limits, &mut self.scratch)
-                .map(|p| (0, p));
-        }
-        let map = self
-            .maps
-            .iter()
-            .position(|m| m.wire == h.map)
-            .ok_or(Rejection {
-                status: Status::UnknownMap,
-                agent: None,
-                row: None,
-                field: Field::Map,
-                limit: 0,
-            })?;
-        let params = protocol::decode_request(h, rows, &self.settings.limits, &mut self.scratch)?;
-        Ok((map, params))
     }
 
     fn notify_client(&mut self, id: u128) {
@@ -616,6 +698,83 @@ impl Daemon {
     }
 }
 
+/// Validate a request against the loaded maps and the limits.
+fn decode(
+    maps: &[LoadedMap],
+    limits: &Limits,
+    h: &RequestHeader,
+    rows: &[Observation],
+    scratch: &mut DecodeScratch,
+) -> Result<(usize, Params), Rejection> {
+    // the version is checked before anything else is read
+    if h.version == PROTOCOL_VERSION {
+        let Some(map) = maps.iter().position(|m| m.wire == h.map) else {
+            return Err(Rejection {
+                status: Status::UnknownMap,
+                field: Field::Map,
+                ..internal()
+            });
+        };
+        let params = protocol::decode_request(h, rows, limits, scratch)?;
+        return Ok((map, params));
+    }
+    protocol::decode_request(h, rows, limits, scratch).map(|p| (0, p))
+}
+
+fn response_header(h: &RequestHeader) -> ResponseHeader {
+    ResponseHeader {
+        version: PROTOCOL_VERSION,
+        request_id: h.request_id,
+        ..ResponseHeader::default()
+    }
+}
+
+/// One request's prediction: the loaned response's payload and what goes into it.
+struct Job<'a> {
+    map: &'a CliffMap,
+    states: &'a [cliff::motion::State],
+    params: Params,
+    out: &'a mut [u32],
+    ok: &'a mut bool,
+}
+
+impl Job<'_> {
+    fn run(&mut self) {
+        let points = self.states.len() * self.params.k * self.params.steps();
+        let (pos, lens) = self.out.split_at_mut(points * 2);
+        let out = BatchMut {
+            positions: bytemuck::cast_slice_mut(pos),
+            lens,
+        };
+        *self.ok = match predict_into(self.map, self.states, &self.params, out) {
+            Ok(()) => true,
+            Err(e) => {
+                // decode_request checks everything predict_into does
+                error!("prediction failed: {e}");
+                false
+            }
+        };
+    }
+}
+
+/// Reuse a vector's memory for elements of another lifetime (it is empty in between),
+/// so that the parallel path builds its job list without allocating.
+fn recycle<'b>(mut v: Vec<Job<'_>>) -> Vec<Job<'b>> {
+    v.clear();
+    // collecting an emptied vector's iterator in place keeps the allocation (same layout)
+    v.into_iter().map(|_| unreachable!()).collect()
+}
+
+/// Per-request state of a batch slot, reused between batches.
+struct Slot {
+    header: RequestHeader,
+    scratch: DecodeScratch,
+    map: usize,
+    params: Params,
+    response: Option<Response>,
+    ok: bool,
+}
+
 fn internal() -> Rejection {
     Rejection {
         status: Status::Internal,
@@ -667,4 +826,70 @@ fn load_maps(specs: &[MapSpec]) -> Result<Vec<LoadedMap>, StartError> {
         });
     }
     Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn recycled_job_vectors_keep_their_memory() {
+        let v: Vec<Job<'static>> = Vec::with_capacity(16);
+        let ptr = v.as_ptr() as usize;
+        let w: Vec<Job<'_>> = recycle(v);
+        assert_eq!((w.capacity(), w.as_ptr() as usize), (16, ptr));
+        let back: Vec<Job<'static>> = recycle(w);
+        assert_eq!((back.capacity(), back.as_ptr() as usize), (16, ptr));
+    }
+
+    #[test]
+    fn map_specs_parse_and_refuse_bad_ones() {
+        let m: MapSpec = "hall=maps/hall.csv".parse().unwrap();
+        assert_eq!(m.name, "hall");
+        assert_eq!(m.path, Some(PathBuf::from("maps/hall.csv")));
+        assert!("hall".parse::<MapSpec>().unwrap_err().contains("NAME=PATH"));
+        assert!("=x.csv".parse::<MapSpec>().unwrap_err().contains("empty"));
+        assert!(
+            "hall="
+                .parse::<MapSpec>()
+                .unwrap_err()
+                .contains("empty path")
+        );
+        let long = format!("{}=x.csv", "n".repeat(64));
+        assert!(long.parse::<MapSpec>().is_err());
+    }
+
+    #[test]
+    fn bad_settings_and_maps_are_refused_before_serving() {
+        let bad = |f: &dyn Fn(&mut Settings)| {
+            let mut s = Settings {
+                prefix: Some("cliff_unit_settings_".into()),
+                ..Settings::default()
+            };
+            f(&mut s);
+            Daemon::new(s).err().expect("refused").to_string()
+        };
+        assert!(bad(&|s| s.limits.max_k = 0).contains("at least 1"));
+        assert!(bad(&|s| s.limits.max_history = 65).contains("max history"));
+        assert!(bad(&|s| s.workers = 0).contains("workers"));
+        assert!(bad(&|s| s.max_clients = 0).contains("at least 1"));
+        let e = bad(&|s| {
+            s.maps = vec![MapSpec {
+                name: "x".into(),
+                path: Some("/nonexistent/map.csv".into()),
+            }]
+        });
+        assert!(
+            e.contains("map 'x'") && e.contains("/nonexistent/map.csv"),
+            "{e}"
+        );
+        let e = bad(&|s| {
+            let m = MapSpec {
+                name: "x".into(),
+                path: None,
+            };
+            s.maps = vec![m.clone(), m];
+        });
+        assert!(e.contains("twice"), "{e}");
+    }
 }
