@@ -401,37 +401,34 @@ impl Daemon {
         );
     }
 
-    /// Answer every request waiting now; true when there was at least one. With more
-    /// than one worker, requests that arrived together are predicted in parallel.
+    /// Answer the requests waiting now (up to one batch: everything the clients can
+    /// have in flight, at most 64); true when there was at least one. With more than
+    /// one worker, requests that arrived together are predicted in parallel.
     pub fn serve_pending(&mut self) -> bool {
-        let mut any = false;
-        loop {
-            // gather what is there (up to the batch size)
-            while self.batch.len() < self.batch.capacity() {
-                match self.server.receive() {
-                    Ok(Some(req)) => {
-                        let h = req.user_header();
-                        if h.version == PROTOCOL_VERSION && h.kind == KIND_RELOAD {
-                            info!(request_id = h.request_id, "reload request");
-                            self.start_reload();
-                            self.reload_waiters.push(req);
-                        } else {
-                            self.batch.push(req);
-                        }
-                    }
-                    Ok(None) => break,
-                    Err(e) => {
-                        warn!("receiving requests failed: {e:?}");
-                        break;
+        while self.batch.len() < self.batch.capacity() {
+            match self.server.receive() {
+                Ok(Some(req)) => {
+                    let h = req.user_header();
+                    if h.version == PROTOCOL_VERSION && h.kind == KIND_RELOAD {
+                        info!(request_id = h.request_id, "reload request");
+                        self.start_reload();
+                        self.reload_waiters.push(req);
+                    } else {
+                        self.batch.push(req);
                     }
                 }
+                Ok(None) => break,
+                Err(e) => {
+                    warn!("receiving requests failed: {e:?}");
+                    break;
+                }
             }
-            if self.batch.is_empty() {
-                return any;
-            }
-            any = true;
-            self.serve_batch();
         }
+        if self.batch.is_empty() {
+            return false;
+        }
+        self.serve_batch();
+        true
     }
 
     /// Decode, loan, predict (in parallel when there is a pool and more than one
