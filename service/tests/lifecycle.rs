@@ -179,6 +179,44 @@ fn sigint_and_sigterm_shut_down_cleanly() {
 }
 
 #[test]
+fn sigterm_stops_the_daemon_under_continuous_load() {
+    let ns = Namespace::new("busy");
+    let mut daemon = Daemon::start(&ns, &["--workers", "2"]);
+    let stop = Arc::new(AtomicBool::new(false));
+    let load: Vec<_> = (0..2)
+        .map(|t| {
+            let (stop, prefix) = (stop.clone(), ns.prefix.clone());
+            std::thread::spawn(move || {
+                let options = ClientOptions {
+                    wait: WaitMode::Spin,
+                    deadline: Duration::from_secs(1),
+                    prefix: Some(prefix),
+                    ..ClientOptions::default()
+                };
+                let mut c = Client::connect_with(SERVICE, options).expect("connect");
+                let req = demo_request(t, 1, 2, Method::Cvm);
+                let mut ok = 0u64;
+                while !stop.load(Ordering::Relaxed) {
+                    if c.predict(&req).is_ok() {
+                        ok += 1;
+                    } else {
+                        std::thread::sleep(Duration::from_millis(1));
+                    }
+                }
+                ok
+            })
+        })
+        .collect();
+    std::thread::sleep(Duration::from_millis(300));
+    daemon.signal(SIGTERM);
+    let status = daemon.wait_exit(Duration::from_secs(5));
+    stop.store(true, Ordering::Relaxed);
+    let served: u64 = load.into_iter().map(|t| t.join().unwrap()).sum();
+    assert!(served > 0);
+    assert!(status.expect("exits within 5 s under load").success());
+}
+
+#[test]
 fn a_second_daemon_on_the_same_service_refuses_to_start() {
     let ns = Namespace::new("twice");
     let _daemon = Daemon::start(&ns, &[]);
