@@ -32,6 +32,9 @@ use iceoryx2::prelude::*;
 use rayon::prelude::*;
 use tracing::{debug, error, info, warn};
 
+/// How often the daemon logs its traffic (when there was any).
+const STATS_INTERVAL: Duration = Duration::from_secs(10);
+
 /// A map to serve: a name and the file it comes from (`None`: the built-in demo scene).
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct MapSpec {
@@ -159,7 +162,7 @@ pub struct Daemon {
     wake: Listener<ipc::Service>,
     notifier: Notifier<ipc::Service>,
     listener_keys: Vec<(u128, ListenerKey)>,
-    _service: PredictService,
+    service: PredictService,
     _wake_service: iceoryx2::service::port_factory::event::PortFactory<ipc::Service>,
     _response_events: iceoryx2::service::port_factory::event::PortFactory<ipc::Service>,
     node: Node<ipc::Service>,
@@ -316,7 +319,7 @@ impl Daemon {
             wake,
             notifier,
             listener_keys: Vec::with_capacity(clients * 2),
-            _service: service,
+            service,
             _wake_service: wake_service,
             _response_events: response_events,
             node,
@@ -360,6 +363,8 @@ impl Daemon {
         let mut last_activity = Instant::now();
         let mut next_housekeeping = last_activity;
         let mut next_cleanup = last_activity + self.settings.cleanup_interval;
+        let mut next_report = last_activity + STATS_INTERVAL;
+        let mut reported = self.stats;
         while !stop.load(Ordering::Relaxed) {
             let served = self.serve_pending();
             let now = Instant::now();
@@ -375,6 +380,21 @@ impl Daemon {
                 if now >= next_cleanup {
                     self.cleanup_dead_nodes();
                     next_cleanup = now + self.settings.cleanup_interval;
+                }
+                if now >= next_report {
+                    if self.stats != reported {
+                        let s = self.stats;
+                        info!(
+                            served = s.served - reported.served,
+                            rejected = s.rejected - reported.rejected,
+                            undelivered = s.failed - reported.failed,
+                            clients = self.service.dynamic_config().number_of_clients(),
+                            "requests in the last {} s",
+                            STATS_INTERVAL.as_secs()
+                        );
+                        reported = s;
+                    }
+                    next_report = now + STATS_INTERVAL;
                 }
                 next_housekeeping = now + Duration::from_millis(50);
             }

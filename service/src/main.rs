@@ -54,7 +54,8 @@ struct Args {
     #[arg(long, default_value_t = MAX_HISTORY)]
     max_history: u32,
 
-    /// Most client processes connected at once.
+    /// Most clients connected at once (each Client object, C client or cliff-bench
+    /// thread is one).
     #[arg(long, default_value_t = Settings::default().max_clients)]
     max_clients: usize,
 
