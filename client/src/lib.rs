@@ -107,7 +107,8 @@ pub type PredictService = iceoryx2::service::port_factory::request_response::Por
 /// How a client waits for its response.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum WaitMode {
-    /// Busy-poll until the response is there.
+    /// Busy-poll until the response is there. Needs a core of its own: on a host with
+    /// more busy threads than cores, use [`WaitMode::Hybrid`].
     Spin,
     /// Busy-poll for [`ClientOptions::spin`], then sleep on the daemon's event.
     #[default]

@@ -32,6 +32,9 @@ use iceoryx2::prelude::*;
 use rayon::prelude::*;
 use tracing::{debug, error, info, warn};
 
+/// After this long without requests, the busy-polling loop yields its core between polls.
+const POLITE_AFTER: Duration = Duration::from_micros(50);
+
 /// How often the daemon logs its traffic (when there was any).
 const STATS_INTERVAL: Duration = Duration::from_secs(10);
 
@@ -408,6 +411,9 @@ impl Daemon {
                             std::thread::sleep(Duration::from_millis(1));
                         }
                     }
+                } else if now.duration_since(last_activity) >= POLITE_AFTER {
+                    // let a client on this core run (oversubscribed hosts)
+                    std::thread::yield_now();
                 } else {
                     std::hint::spin_loop();
                 }
