@@ -1008,4 +1008,115 @@ mod tests {
         assert_eq!(b.lens(), direct.lens());
         assert_eq!(bits(&b), bits(&direct));
     }
+
+    /// Random bit patterns and random near-valid requests: decoding never panics, and
+    /// whatever it accepts predicts without error into a buffer of the announced shape.
+    #[test]
+    fn random_requests_never_panic_and_accepted_ones_predict() {
+        use rand::{RngExt, SeedableRng};
+        let map = CliffMap::demo();
+        let limits = Limits {
+            max_agents: 4,
+            max_k: 5,
+            max_steps: 12,
+            max_history: 8,
+        };
+        let mut s = DecodeScratch::new(&limits);
+        let mut rng = rand_xoshiro::Xoshiro256PlusPlus::seed_from_u64(17);
+        let mut accepted = 0;
+        let specials = [
+            0.0,
+            -0.0,
+            1.0,
+            -1.0,
+            0.4,
+            1e-300,
+            1e300,
+            f64::NAN,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::MIN_POSITIVE,
+            f64::MAX,
+        ];
+        for _ in 0..20_000 {
+            // mostly plausible values, sometimes special or random bit patterns
+            let num = |rng: &mut rand_xoshiro::Xoshiro256PlusPlus, near: f64| -> f64 {
+                match rng.random_range(0..40) {
+                    0 => specials[rng.random_range(0..specials.len())],
+                    1 => f64::from_bits(rng.random()),
+                    _ => near * rng.random_range(0.5..1.5),
+                }
+            };
+            let agents = rng.random_range(0..6u32);
+            let mut h = header(if rng.random_ratio(1, 20) {
+                rng.random_range(0..8)
+            } else {
+                agents
+            });
+            h.version = if rng.random_ratio(1, 40) {
+                rng.random()
+            } else {
+                PROTOCOL_VERSION
+            };
+            h.kind = if rng.random_ratio(1, 40) {
+                rng.random()
+            } else {
+                KIND_PREDICT
+            };
+            h.method = if rng.random_ratio(1, 40) {
+                rng.random()
+            } else {
+                rng.random_range(0..2)
+            };
+            h.heading_rule = if rng.random_ratio(1, 40) {
+                7
+            } else {
+                rng.random_range(0..2)
+            };
+            h.k = rng.random_range(0..7);
+            h.dt = num(&mut rng, 0.4);
+            h.horizon = num(&mut rng, 3.0);
+            h.beta = num(&mut rng, 1.0);
+            h.radius = num(&mut rng, 0.7);
+            h.seed = rng.random();
+            let mut rows = Vec::new();
+            for a in 0..agents {
+                let flags = rng.random_range(0..2);
+                let mut t = num(&mut rng, 10.0);
+                for _ in 0..rng.random_range(1..10) {
+                    t += num(&mut rng, 0.4);
+                    rows.push(Observation {
+                        agent: if rng.random_ratio(1, 100) {
+                            rng.random()
+                        } else {
+                            a
+                        },
+                        flags: if rng.random_ratio(1, 100) {
+                            1 - flags
+                        } else {
+                            flags
+                        },
+                        t,
+                        x: num(&mut rng, -5.0),
+                        y: num(&mut rng, 1.0),
+                        speed: num(&mut rng, 1.2),
+                        heading: num(&mut rng, 3.0),
+                    });
+                }
+            }
+            if let Result::Ok(p) = decode_request(&h, &rows, &limits, &mut s) {
+                accepted += 1;
+                let st = s.states();
+                assert!(st.len() <= 4 && p.k <= 5 && p.steps() <= 12 && p.steps() > 0);
+                let mut pos = vec![[0f32; 2]; st.len() * p.k * p.steps()];
+                let mut lens = vec![0u32; st.len() * p.k];
+                let out = cliff::predict::BatchMut {
+                    positions: &mut pos,
+                    lens: &mut lens,
+                };
+                predict_into(&map, st, &p, out).expect("accepted requests predict");
+            }
+        }
+        assert!(accepted > 100, "only {accepted} random requests were valid");
+    }
 }

@@ -332,3 +332,62 @@ fn real_thor_tracks_on_the_real_thor_map_match_in_process() {
         "most samples of real people on their own map make steps: {moved}"
     );
 }
+
+#[test]
+fn random_garbage_requests_are_answered_and_never_stop_the_daemon() {
+    use rand::{RngExt, SeedableRng};
+    let ns = Namespace::new("garbage");
+    let mut daemon = Daemon::start(&ns, &[]);
+    let mut client = ns.connect(WaitMode::Hybrid);
+    let mut rng = rand_xoshiro::Xoshiro256PlusPlus::seed_from_u64(99);
+    let (good_h, good_rows) = good(2);
+    let (mut ok, mut rejected) = (0, 0);
+    for i in 0..400 {
+        let mut h = good_h;
+        let mut rows = good_rows.clone();
+        // scramble a few fields with arbitrary bit patterns
+        for _ in 0..rng.random_range(1..4) {
+            match rng.random_range(0..12) {
+                0 => h.version = rng.random(),
+                1 => h.kind = rng.random_range(0..3),
+                2 => h.method = rng.random(),
+                3 => h.k = rng.random(),
+                4 => h.agents = rng.random_range(0..40),
+                5 => h.dt = f64::from_bits(rng.random()),
+                6 => h.horizon = f64::from_bits(rng.random()),
+                7 => h.radius = f64::from_bits(rng.random()),
+                8 => h.map[rng.random_range(0..64)] = rng.random(),
+                9 => {
+                    let r = rng.random_range(0..rows.len());
+                    rows[r].t = f64::from_bits(rng.random());
+                }
+                10 => {
+                    let r = rng.random_range(0..rows.len());
+                    rows[r].agent = rng.random();
+                }
+                _ => rows.truncate(rng.random_range(0..rows.len())),
+            }
+        }
+        if h.kind == cliff_client::KIND_RELOAD {
+            h.kind = 2; // reloads are not garbage
+        }
+        match client.predict_raw(&h, &rows, Duration::from_secs(5)) {
+            Ok(p) => {
+                let (a, k, s) = p.shape();
+                assert_eq!(p.positions().len(), a * k * s);
+                ok += 1;
+            }
+            Err(Error::Rejected(_)) => rejected += 1,
+            Err(e) => panic!("request {i}: {e}"),
+        }
+    }
+    assert!(rejected > 200, "{ok} accepted, {rejected} rejected");
+    // still serving, with the right numbers
+    let req = demo_request(3, 2, 10, cliff::predict::Method::Cliff);
+    let p = client.predict(&req).expect("served after the garbage");
+    assert_eq!(
+        (p.shape(), bits(p.positions(), p.lens())),
+        local_bits(&CliffMap::demo(), &req)
+    );
+    assert!(daemon.child.try_wait().unwrap().is_none());
+}
