@@ -150,6 +150,8 @@ pub struct Stats {
     pub failed: u64,
     /// Completed map reloads.
     pub reloads: u64,
+    /// Requests predicted in parallel with others (with more than one worker).
+    pub parallel: u64,
 }
 
 /// The prediction daemon: maps, iceoryx2 ports and reusable buffers.
@@ -423,6 +425,7 @@ impl Daemon {
             served = self.stats.served,
             rejected = self.stats.rejected,
             failed = self.stats.failed,
+            parallel = self.stats.parallel,
             "shutting down"
         );
     }
@@ -526,6 +529,7 @@ impl Daemon {
                         });
                     }
                 }
+                self.stats.parallel += jobs.len() as u64;
                 pool.install(|| jobs.par_iter_mut().for_each(|j| j.run()));
                 self.jobs = recycle(jobs);
             }
