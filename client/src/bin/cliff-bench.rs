@@ -457,10 +457,18 @@ fn run(a: Args) -> Result<ExitCode, String> {
         println!(
             "  in-process = the same requests decoded and predicted here, one thread, no IPC."
         );
-        if a.wait == WaitMode::Spin && cores > 0 && a.clients + 1 > cores {
+        if a.wait != WaitMode::Block && cores > 0 && a.clients + 1 > cores {
             println!(
-                "  note: {} spinning clients + cliffd on {} CPUs compete for cores; latency then measures\n        the scheduler. Use --wait hybrid or block for throughput runs.",
-                a.clients, cores
+                "  note: {} {} clients + cliffd on {} CPUs compete for cores (a {} client busy-polls{}),\n        so latency measures the scheduler; use --wait block for throughput runs.",
+                a.clients,
+                a.wait,
+                cores,
+                a.wait,
+                if a.wait == WaitMode::Hybrid {
+                    format!(" for up to {} us", a.spin_us)
+                } else {
+                    String::new()
+                }
             );
         }
     }
