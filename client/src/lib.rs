@@ -1,1 +1,732 @@
-//! Client library for cliffd (under construction).
+//! # cliff-client: talk to the `cliffd` prediction daemon over iceoryx2 shared memory
+//!
+//! * [`protocol`]: the wire types (`#[repr(C)]`, versioned) and the request validation
+//!   shared with the daemon, plus the in-process reference [`LocalPredictor`].
+//! * [`Client`]: connect to a daemon, send a [`Request`], get a [`Prediction`] that
+//!   borrows the response in shared memory (no copy).
+//! * [`ffi`]: the C ABI (header `client/include/cliff_client.h`).
+//!
+//! ```no_run
+//! use cliff_client::{Client, Observation, Request};
+//! use cliff::predict::Params;
+//!
+//! let mut client = Client::connect("cliff/predict")?;
+//! let mut request = Request::new("demo", &Params::default())?;
+//! // one person walking east, observed at 2.5 Hz
+//! request.add_agent((0..4).map(|i| Observation::position(0.4 * i as f64, -10.0 + 0.5 * i as f64, 0.5)));
+//! let prediction = client.predict(&request)?;
+//! for agent in prediction.agents() {
+//!     for sample in agent.samples() {
+//!         for [x, y] in sample {
+//!             let _ = (x, y); // a predicted position every dt seconds
+//!         }
+//!     }
+//! }
+//! # Ok::<(), cliff_client::Error>(())
+//! ```
+//!
+//! ## Waiting
+//!
+//! [`WaitMode::Spin`] busy-polls for the response (lowest latency, one core busy while
+//! waiting); [`WaitMode::Block`] sleeps on an iceoryx2 event the daemon signals (no CPU,
+//! but a wake-up across cores costs tens of microseconds); [`WaitMode::Hybrid`], the
+//! default, spins for [`ClientOptions::spin`] and then blocks.
+//!
+//! ## Failures
+//!
+//! Every call has a deadline ([`ClientOptions::deadline`]). [`Error::NoDaemon`] means no
+//! daemon serves the service, [`Error::DaemonGone`] that it died while the request was
+//! in flight, [`Error::Deadline`] that no answer came in time, [`Error::Rejected`] that
+//! the daemon refused the request (with the [`Status`] and where). After a daemon
+//! restart the same `Client` works again: there is nothing to rebuild.
+#![warn(missing_docs)]
+
+pub mod ffi;
+pub mod protocol;
+
+use std::fmt;
+use std::marker::PhantomData;
+use std::time::{Duration, Instant};
+
+use cliff::predict::Params;
+use iceoryx2::port::client::Client as IoxClient;
+use iceoryx2::port::listener::{Listener, ListenerWaitError};
+use iceoryx2::port::notifier::Notifier;
+use iceoryx2::prelude::*;
+use iceoryx2::response::Response;
+
+pub use protocol::{
+    Field, KIND_RELOAD, Limits, LocalPredictor, Observation, PROTOCOL_VERSION, Rejection,
+    RequestHeader, ResponseHeader, Status,
+};
+
+/// The service name `cliffd` serves on by default.
+pub const DEFAULT_SERVICE: &str = "cliff/predict";
+
+/// Environment variable naming the iceoryx2 prefix (namespace) used when
+/// [`ClientOptions::prefix`] is not set; `cliffd --prefix` reads it too.
+pub const PREFIX_ENV: &str = "CLIFF_IPC_PREFIX";
+
+/// Name of the event service a client signals after sending a request (wakes a
+/// sleeping daemon).
+pub fn request_event_name(service: &str) -> String {
+    format!("{service}/requests")
+}
+
+/// Name of the event service the daemon signals a blocking client on.
+pub fn response_event_name(service: &str) -> String {
+    format!("{service}/responses")
+}
+
+/// The iceoryx2 configuration for an optional prefix (namespace): processes with
+/// different prefixes never see each other. Starts from iceoryx2's built-in defaults
+/// (not a config file), so that daemon and clients always agree.
+pub fn iceoryx_config(prefix: Option<&str>) -> Result<Config, String> {
+    let mut config = Config::default();
+    if let Some(p) = prefix {
+        config.global.prefix = FileName::new(p.as_bytes())
+            .map_err(|e| format!("iceoryx2 prefix '{p}' is not a valid file name: {e:?}"))?;
+    }
+    Ok(config)
+}
+
+/// The prefix from [`PREFIX_ENV`], if set and not empty.
+pub fn prefix_from_env() -> Option<String> {
+    std::env::var(PREFIX_ENV).ok().filter(|s| !s.is_empty())
+}
+
+/// The iceoryx2 request-response service type of the protocol.
+pub type PredictService = iceoryx2::service::port_factory::request_response::PortFactory<
+    ipc::Service,
+    [Observation],
+    RequestHeader,
+    [u32],
+    ResponseHeader,
+>;
+
+/// How a client waits for its response.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum WaitMode {
+    /// Busy-poll until the response is there. Needs a core of its own: on a host with
+    /// more busy threads than cores, use [`WaitMode::Hybrid`].
+    Spin,
+    /// Busy-poll for [`ClientOptions::spin`], then sleep on the daemon's event.
+    #[default]
+    Hybrid,
+    /// Sleep on the daemon's event at once.
+    Block,
+}
+
+impl std::str::FromStr for WaitMode {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s.to_ascii_lowercase().as_str() {
+            "spin" => Ok(WaitMode::Spin),
+            "hybrid" | "spin-then-block" => Ok(WaitMode::Hybrid),
+            "block" => Ok(WaitMode::Block),
+            other => Err(format!(
+                "unknown wait mode '{other}' (expected spin, hybrid or block)"
+            )),
+        }
+    }
+}
+
+impl fmt::Display for WaitMode {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            WaitMode::Spin => "spin",
+            WaitMode::Hybrid => "hybrid",
+            WaitMode::Block => "block",
+        })
+    }
+}
+
+/// Settings of a [`Client`].
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct ClientOptions {
+    /// How to wait for responses (default [`WaitMode::Hybrid`]).
+    pub wait: WaitMode,
+    /// How long [`WaitMode::Hybrid`] spins before it blocks (default 200 us).
+    pub spin: Duration,
+    /// Deadline of each call (default 1 s).
+    pub deadline: Duration,
+    /// iceoryx2 prefix (namespace); default: the [`PREFIX_ENV`] variable, else iceoryx2's.
+    pub prefix: Option<String>,
+}
+
+impl Default for ClientOptions {
+    fn default() -> Self {
+        ClientOptions {
+            wait: WaitMode::Hybrid,
+            spin: Duration::from_micros(200),
+            deadline: Duration::from_secs(1),
+            prefix: prefix_from_env(),
+        }
+    }
+}
+
+/// Why a call failed.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum Error {
+    /// No daemon serves this service (never started, or stopped).
+    #[error("no cliffd daemon serves '{service}' (is it running, with the same --prefix?)")]
+    NoDaemon {
+        /// The service name.
+        service: String,
+    },
+    /// The daemon died or shut down while the request was in flight.
+    #[error("the cliffd daemon serving '{service}' is gone (died or shut down mid-request)")]
+    DaemonGone {
+        /// The service name.
+        service: String,
+    },
+    /// No response within the deadline.
+    #[error("no response within the deadline of {deadline:?}")]
+    Deadline {
+        /// The deadline that passed.
+        deadline: Duration,
+    },
+    /// The daemon refused the request.
+    #[error("request rejected by cliffd: {0}")]
+    Rejected(Rejection),
+    /// The request cannot be sent as it is (caught before sending).
+    #[error("invalid request: {0}")]
+    InvalidRequest(String),
+    /// The response breaks the protocol (a daemon of another version, or a bug).
+    #[error("malformed response: {0}")]
+    Protocol(String),
+    /// iceoryx2 failed (shared memory, permissions, limits).
+    #[error("iceoryx2: {0}")]
+    Ipc(String),
+}
+
+impl Error {
+    /// The rejection status, when the daemon refused the request.
+    pub fn status(&self) -> Option<Status> {
+        match self {
+            Error::Rejected(r) => Some(r.status),
+            _ => None,
+        }
+    }
+}
+
+fn ipc_err(what: &str, e: impl fmt::Debug) -> Error {
+    Error::Ipc(format!("{what}: {e:?}"))
+}
+
+/// A prediction request: map, parameters and the agents' observed histories. Reuse it
+/// between calls ([`clear_agents`](Self::clear_agents) keeps the allocation).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Request {
+    header: RequestHeader,
+    rows: Vec<Observation>,
+}
+
+impl Request {
+    /// A request against the map `map` with `params` and no agents yet.
+    pub fn new(map: &str, params: &Params) -> Result<Self, Error> {
+        let mut header = RequestHeader::from_params(params);
+        header.set_map_name(map).map_err(Error::InvalidRequest)?;
+        Ok(Request {
+            header,
+            rows: Vec::new(),
+        })
+    }
+
+    /// Replace the parameters (keeps map and agents).
+    pub fn set_params(&mut self, params: &Params) {
+        let keep = self.header;
+        self.header = RequestHeader {
+            map: keep.map,
+            agents: keep.agents,
+            ..RequestHeader::from_params(params)
+        };
+    }
+
+    /// Set the seed of the request's random generator.
+    pub fn set_seed(&mut self, seed: u64) {
+        self.header.seed = seed;
+    }
+
+    /// Change the map.
+    pub fn set_map(&mut self, map: &str) -> Result<(), Error> {
+        self.header.set_map_name(map).map_err(Error::InvalidRequest)
+    }
+
+    /// Remove all agents.
+    pub fn clear_agents(&mut self) {
+        self.rows.clear();
+        self.header.agents = 0;
+    }
+
+    /// Add an agent with its observed history, oldest row first; returns its index in
+    /// the response. Rows made with [`Observation::with_velocity`] give the observed
+    /// velocity from the tracker's speed and heading, rows made with
+    /// [`Observation::position`] from the positions (at least two rows then).
+    pub fn add_agent(&mut self, history: impl IntoIterator<Item = Observation>) -> usize {
+        let a = self.header.agents;
+        self.rows
+            .extend(history.into_iter().map(|o| Observation { agent: a, ..o }));
+        self.header.agents += 1;
+        a as usize
+    }
+
+    /// Number of agents.
+    pub fn agents(&self) -> usize {
+        self.header.agents as usize
+    }
+
+    /// The wire header (request id and listener are filled in when sent).
+    pub fn header(&self) -> &RequestHeader {
+        &self.header
+    }
+
+    /// The wire rows.
+    pub fn rows(&self) -> &[Observation] {
+        &self.rows
+    }
+}
+
+/// A connection to a `cliffd` daemon. Not thread-safe (iceoryx2 `ipc` ports): use one
+/// client per thread.
+pub struct Client {
+    service_name: String,
+    options: ClientOptions,
+    // ports first: they drop before the services and the node
+    port: IoxClient<ipc::Service, [Observation], RequestHeader, [u32], ResponseHeader>,
+    wake: Notifier<ipc::Service>,
+    listener: Listener<ipc::Service>,
+    listener_id: [u64; 2],
+    _service: PredictService,
+    _wake_service: iceoryx2::service::port_factory::event::PortFactory<ipc::Service>,
+    _response_events: iceoryx2::service::port_factory::event::PortFactory<ipc::Service>,
+    node: Node<ipc::Service>,
+    next_id: u64,
+    stale: u64,
+}
+
+impl fmt::Debug for Client {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("Client")
+            .field("service", &self.service_name)
+            .field("options", &self.options)
+            .field("next_id", &self.next_id)
+            .finish_non_exhaustive()
+    }
+}
+
+/// How often a waiting client checks whether the daemon died (a SIGKILLed daemon's
+/// connection looks alive until a node cleans up its resources).
+const LIVENESS_INTERVAL: Duration = Duration::from_millis(20);
+
+impl Client {
+    /// Connect to the daemon serving `service` with default [`ClientOptions`].
+    pub fn connect(service: &str) -> Result<Client, Error> {
+        Self::connect_with(service, ClientOptions::default())
+    }
+
+    /// Connect with explicit options. Fails with [`Error::NoDaemon`] when no daemon has
+    /// created the service (or none serves it right now).
+    pub fn connect_with(service: &str, options: ClientOptions) -> Result<Client, Error> {
+        let config = iceoryx_config(options.prefix.as_deref()).map_err(Error::InvalidRequest)?;
+        let node = NodeBuilder::new()
+            .config(&config)
+            .signal_handling_mode(SignalHandlingMode::Disabled)
+            .create::<ipc::Service>()
+            .map_err(|e| ipc_err("cannot create node", e))?;
+        let name = |s: &str| -> Result<ServiceName, Error> {
+            ServiceName::new(s)
+                .map_err(|e| Error::InvalidRequest(format!("service name '{s}': {e:?}")))
+        };
+        let no_daemon = || Error::NoDaemon {
+            service: service.to_string(),
+        };
+        use iceoryx2::service::builder::request_response::RequestResponseOpenError as E;
+        let svc = node
+            .service_builder(&name(service)?)
+            .request_response::<[Observation], [u32]>()
+            .request_user_header::<RequestHeader>()
+            .response_user_header::<ResponseHeader>()
+            .open()
+            .map_err(|e| match e {
+                E::DoesNotExist => no_daemon(),
+                e => ipc_err("cannot open the service", e),
+            })?;
+        if svc.dynamic_config().number_of_servers() == 0 {
+            return Err(no_daemon());
+        }
+        let wake_service = node
+            .service_builder(&name(&request_event_name(service))?)
+            .event()
+            .open()
+            .map_err(|e| ipc_err("cannot open the request event service", e))?;
+        let response_events = node
+            .service_builder(&name(&response_event_name(service))?)
+            .event()
+            .open()
+            .map_err(|e| ipc_err("cannot open the response event service", e))?;
+        let port = svc
+            .client_builder()
+            .initial_max_slice_len(64)
+            .allocation_strategy(AllocationStrategy::PowerOfTwo)
+            .create()
+            .map_err(|e| ipc_err("cannot create the client port (too many clients?)", e))?;
+        let wake = wake_service
+            .notifier_builder()
+            .create()
+            .map_err(|e| ipc_err("cannot create the request notifier", e))?;
+        let listener = response_events
+            .listener_builder()
+            .create()
+            .map_err(|e| ipc_err("cannot create the response listener", e))?;
+        let id = listener.id().value();
+        let listener_id = [id as u64, (id >> 64) as u64];
+        // request ids start at a per-process value so that two clients of one service
+        // (or a restarted client) do not reuse each other's ids
+        let seed = std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .map(|d| d.as_nanos() as u64)
+            .unwrap_or(0)
+            ^ ((std::process::id() as u64) << 40);
+        Ok(Client {
+            service_name: service.to_string(),
+            options,
+            port,
+            wake,
+            listener,
+            listener_id,
+            _service: svc,
+            _wake_service: wake_service,
+            _response_events: response_events,
+            node,
+            next_id: seed | 1,
+            stale: 0,
+        })
+    }
+
+    /// The options in force.
+    pub fn options(&self) -> &ClientOptions {
+        &self.options
+    }
+
+    /// Change the wait mode.
+    pub fn set_wait(&mut self, wait: WaitMode) {
+        self.options.wait = wait;
+    }
+
+    /// Change the deadline of later calls.
+    pub fn set_deadline(&mut self, deadline: Duration) {
+        self.options.deadline = deadline;
+    }
+
+    /// Change how long [`WaitMode::Hybrid`] spins before blocking.
+    pub fn set_spin(&mut self, spin: Duration) {
+        self.options.spin = spin;
+    }
+
+    /// The service name.
+    pub fn service(&self) -> &str {
+        &self.service_name
+    }
+
+    /// Responses dropped because their request id did not match (stale responses).
+    pub fn stale_responses(&self) -> u64 {
+        self.stale
+    }
+
+    /// Predict with the client's deadline.
+    pub fn predict(&mut self, request: &Request) -> Result<Prediction<'_>, Error> {
+        let deadline = self.options.deadline;
+        self.predict_raw(&request.header, &request.rows, deadline)
+    }
+
+    /// Predict with an explicit deadline for this call.
+    pub fn predict_with_deadline(
+        &mut self,
+        request: &Request,
+        deadline: Duration,
+    ) -> Result<Prediction<'_>, Error> {
+        self.predict_raw(&request.header, &request.rows, deadline)
+    }
+
+    /// Ask the daemon to reload every map from its file (as SIGHUP does). A map that
+    /// fails to load keeps its old version and the call returns
+    /// [`Error::Rejected`] with [`Status::ReloadFailed`].
+    pub fn reload_maps(&mut self, deadline: Duration) -> Result<(), Error> {
+        let header = RequestHeader {
+            kind: KIND_RELOAD,
+            ..RequestHeader::default()
+        };
+        self.predict_raw(&header, &[], deadline).map(|_| ())
+    }
+
+    /// Send a request given in wire form (request id and listener are filled in) and
+    /// wait for its response. The typed [`predict`](Self::predict) calls this; it is
+    /// public for protocol-level tools and tests.
+    pub fn predict_raw(
+        &mut self,
+        header: &RequestHeader,
+        rows: &[Observation],
+        deadline: Duration,
+    ) -> Result<Prediction<'_>, Error> {
+        let response = self.round_trip(header, rows, deadline)?;
+        Ok(Prediction {
+            response,
+            _client: PhantomData,
+        })
+    }
+
+    /// Round trip without the borrow: the response stays valid on its own (used by the
+    /// C ABI, which keeps it until the next call).
+    pub(crate) fn round_trip(
+        &mut self,
+        header: &RequestHeader,
+        rows: &[Observation],
+        deadline: Duration,
+    ) -> Result<RawResponse, Error> {
+        let start = Instant::now();
+        let id = self.next_id;
+        self.next_id = self.next_id.wrapping_add(1);
+        let notify = self.options.wait != WaitMode::Spin;
+
+        let request = self
+            .port
+            .loan_slice_uninit(rows.len())
+            .map_err(|e| ipc_err("cannot loan request memory", e))?;
+        let mut request = request.write_from_slice(rows);
+        let h = request.user_header_mut();
+        *h = *header;
+        h.request_id = id;
+        h.listener_id = if notify { self.listener_id } else { [0, 0] };
+        let pending = request
+            .send()
+            .map_err(|e| ipc_err("cannot send request", e))?;
+        if pending.number_of_server_connections() == 0 {
+            return Err(Error::NoDaemon {
+                service: self.service_name.clone(),
+            });
+        }
+        // wakes a sleeping daemon; costs a system call only when it sleeps
+        let _ = self.wake.notify();
+
+        let gone = || Error::DaemonGone {
+            service: self.service_name.clone(),
+        };
+        let mut next_liveness = start + LIVENESS_INTERVAL;
+        let spin_until = match self.options.wait {
+            WaitMode::Spin => None,
+            WaitMode::Hybrid => Some(start + self.options.spin),
+            WaitMode::Block => Some(start),
+        };
+        let mut polls = 0u32;
+        loop {
+            match pending.receive() {
+                Ok(Some(response)) => {
+                    if response.user_header().request_id != id {
+                        self.stale += 1;
+                        continue;
+                    }
+                    return check_response(response, id);
+                }
+                Ok(None) => {}
+                Err(e) => return Err(ipc_err("cannot receive", e)),
+            }
+            // between the checks below only the response is polled (a tighter loop)
+            polls = polls.wrapping_add(1);
+            if polls % 16 != 1 {
+                std::hint::spin_loop();
+                continue;
+            }
+            if !pending.is_connected() {
+                // the daemon dropped the request: either it answered (and the response
+                // is in the buffer now) or it went away
+                return match pending.receive() {
+                    Ok(Some(r)) if r.user_header().request_id == id => check_response(r, id),
+                    _ => Err(gone()),
+                };
+            }
+            let now = Instant::now();
+            let end = start + deadline;
+            if now >= end {
+                return Err(Error::Deadline { deadline });
+            }
+            if now >= next_liveness {
+                self.node.try_cleanup_dead_nodes();
+                next_liveness = now + LIVENESS_INTERVAL;
+                continue;
+            }
+            match spin_until {
+                Some(t) if now >= t => {
+                    let wait = (end - now).min(next_liveness - now);
+                    match self.listener.timed_wait(|_| {}, wait) {
+                        Ok(_) | Err(ListenerWaitError::InterruptSignal) => {}
+                        Err(e) => return Err(ipc_err("cannot wait for the response event", e)),
+                    }
+                }
+                _ => std::hint::spin_loop(),
+            }
+        }
+    }
+}
+
+/// An owned response (no lifetime); see [`Prediction`].
+pub(crate) type RawResponse = Response<ipc::Service, [u32], ResponseHeader>;
+
+fn check_response(r: RawResponse, id: u64) -> Result<RawResponse, Error> {
+    let h = *r.user_header();
+    if h.request_id != id {
+        return Err(Error::Protocol(format!(
+            "response for request {} instead of {id}",
+            h.request_id
+        )));
+    }
+    if h.version != PROTOCOL_VERSION {
+        return Err(Error::Protocol(format!(
+            "daemon speaks protocol {}, this client {PROTOCOL_VERSION}",
+            h.version
+        )));
+    }
+    if let Some(rej) = Rejection::from_header(&h) {
+        return Err(Error::Rejected(rej));
+    }
+    let words = r.payload().len();
+    if words != h.payload_words() {
+        return Err(Error::Protocol(format!(
+            "payload holds {words} words, shape {}x{}x{} needs {}",
+            h.agents,
+            h.k,
+            h.steps,
+            h.payload_words()
+        )));
+    }
+    let points = (h.agents as usize) * (h.k as usize) * (h.steps as usize);
+    if let Some(bad) = r.payload()[points * 2..].iter().find(|&&l| l > h.steps) {
+        return Err(Error::Protocol(format!(
+            "a sample length {bad} exceeds {} steps",
+            h.steps
+        )));
+    }
+    Ok(r)
+}
+
+/// A batch of predicted trajectories, read in place from shared memory. It borrows the
+/// client: drop it before the next call.
+///
+/// Layout as [`cliff::predict::TrajectoryBatch`]: `agents x k` samples of `steps`
+/// positions each, every sample with its valid length (a CLiFF-LHMP sample ends where
+/// the map has no data).
+pub struct Prediction<'c> {
+    response: RawResponse,
+    _client: PhantomData<&'c mut Client>,
+}
+
+impl fmt::Debug for Prediction<'_> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("Prediction")
+            .field("request_id", &self.request_id())
+            .field("shape", &self.shape())
+            .finish()
+    }
+}
+
+pub(crate) fn split_payload<'a>(
+    h: &ResponseHeader,
+    payload: &'a [u32],
+) -> (&'a [[f32; 2]], &'a [u32]) {
+    let points = (h.agents as usize) * (h.k as usize) * (h.steps as usize);
+    let (pos, lens) = payload.split_at(points * 2);
+    (bytemuck::cast_slice(pos), lens)
+}
+
+impl<'c> Prediction<'c> {
+    fn header(&self) -> &ResponseHeader {
+        self.response.user_header()
+    }
+
+    /// The request id this answers (checked against the request by the client).
+    pub fn request_id(&self) -> u64 {
+        self.header().request_id
+    }
+
+    /// `(agents, k, steps)`.
+    pub fn shape(&self) -> (usize, usize, usize) {
+        let h = self.header();
+        (h.agents as usize, h.k as usize, h.steps as usize)
+    }
+
+    /// All positions, sample-major (NaN past each sample's valid length).
+    pub fn positions(&self) -> &[[f32; 2]] {
+        split_payload(self.header(), self.response.payload()).0
+    }
+
+    /// The valid length of every sample (`agents x k`).
+    pub fn lens(&self) -> &[u32] {
+        split_payload(self.header(), self.response.payload()).1
+    }
+
+    /// The predictions for agent `a` (panics when `a` is out of range).
+    pub fn agent(&self, a: usize) -> AgentPrediction<'_> {
+        let (agents, k, steps) = self.shape();
+        assert!(a < agents, "agent {a} of {agents}");
+        let (pos, lens) = split_payload(self.header(), self.response.payload());
+        AgentPrediction {
+            index: a,
+            steps,
+            positions: &pos[a * k * steps..(a + 1) * k * steps],
+            lens: &lens[a * k..(a + 1) * k],
+        }
+    }
+
+    /// Iterate over the agents, in request order.
+    pub fn agents(&self) -> impl ExactSizeIterator<Item = AgentPrediction<'_>> + '_ {
+        (0..self.shape().0).map(move |a| self.agent(a))
+    }
+
+    /// Copy into a [`TrajectoryBatch`](cliff::predict::TrajectoryBatch) (for keeping the
+    /// result beyond the next call).
+    pub fn to_batch(&self, out: &mut cliff::predict::TrajectoryBatch) {
+        let (a, k, s) = self.shape();
+        out.reshape(a, k, s);
+        let m = out.as_mut();
+        m.positions.copy_from_slice(self.positions());
+        m.lens.copy_from_slice(self.lens());
+    }
+}
+
+/// The `k` samples predicted for one agent.
+#[derive(Debug, Clone, Copy)]
+pub struct AgentPrediction<'p> {
+    index: usize,
+    steps: usize,
+    positions: &'p [[f32; 2]],
+    lens: &'p [u32],
+}
+
+impl<'p> AgentPrediction<'p> {
+    /// The agent's index in the request.
+    pub fn index(&self) -> usize {
+        self.index
+    }
+
+    /// Number of samples (`k`).
+    pub fn len(&self) -> usize {
+        self.lens.len()
+    }
+
+    /// True when `k` is zero (never for an accepted request).
+    pub fn is_empty(&self) -> bool {
+        self.lens.is_empty()
+    }
+
+    /// The valid positions of sample `s`, one per `dt`.
+    pub fn sample(&self, s: usize) -> &'p [[f32; 2]] {
+        let start = s * self.steps;
+        &self.positions[start..start + self.lens[s] as usize]
+    }
+
+    /// Iterate over the samples (each a slice of valid positions).
+    pub fn samples(&self) -> impl ExactSizeIterator<Item = &'p [[f32; 2]]> + use<'p> {
+        let this = *self;
+        (0..self.lens.len()).map(move |s| this.sample(s))
+    }
+}

@@ -1,1 +1,161 @@
-fn main() {}
+//! `cliffd`: the CLiFF-LHMP prediction daemon. See the `cliff_service` library.
+
+use std::io::Write;
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::sync::Arc;
+use std::sync::atomic::AtomicBool;
+use std::time::Duration;
+
+use clap::Parser;
+use cliff_client::protocol::{Limits, MAX_HISTORY};
+use cliff_service::{Daemon, MapSpec, Settings};
+
+/// cliffd: serves CLiFF-LHMP human motion predictions over iceoryx2 shared memory.
+///
+/// Clients (the cliff-client library, its C ABI, cliff-bench) send the observed
+/// histories of people; cliffd answers with k sampled future trajectories per person,
+/// written straight into shared memory. Without --map it serves the built-in demo
+/// scene under the name `demo`. Prints a line containing `ready` once it serves.
+///
+/// Signals: SIGINT / SIGTERM shut down cleanly (a second SIGINT exits at once);
+/// SIGHUP reloads every map from its file (a map that fails to load keeps its old
+/// version). Logs go to stderr (RUST_LOG or --log to filter).
+#[derive(Parser, Debug)]
+#[command(name = "cliffd", version, about, long_about)]
+struct Args {
+    /// iceoryx2 service name to serve on.
+    #[arg(long, default_value = cliff_client::DEFAULT_SERVICE)]
+    service: String,
+
+    /// iceoryx2 prefix (namespace): only clients with the same prefix see this daemon.
+    /// Default: the CLIFF_IPC_PREFIX environment variable, else iceoryx2's default.
+    #[arg(long, env = "CLIFF_IPC_PREFIX")]
+    prefix: Option<String>,
+
+    /// A map to serve, as NAME=PATH (CSV `.csv` or snapshot `.cliff`); repeat for
+    /// several. Without any, the built-in demo scene is served as `demo`.
+    #[arg(long = "map", value_name = "NAME=PATH")]
+    maps: Vec<MapSpec>,
+
+    /// Most agents in one request.
+    #[arg(long, default_value_t = Limits::default().max_agents)]
+    max_agents: u32,
+
+    /// Most samples per agent (k).
+    #[arg(long, default_value_t = Limits::default().max_k)]
+    max_k: u32,
+
+    /// Most steps per sample (floor(horizon / dt)).
+    #[arg(long, default_value_t = Limits::default().max_steps)]
+    max_steps: u32,
+
+    /// Most history rows per agent (at most 64).
+    #[arg(long, default_value_t = MAX_HISTORY)]
+    max_history: u32,
+
+    /// Most clients connected at once (each Client object, C client or cliff-bench
+    /// thread is one).
+    #[arg(long, default_value_t = Settings::default().max_clients)]
+    max_clients: usize,
+
+    /// Most requests one client may have in flight.
+    #[arg(long, default_value_t = Settings::default().max_active_requests)]
+    max_active_requests: usize,
+
+    /// Microseconds the daemon keeps busy-polling after the last request before it
+    /// sleeps (0: always sleep between requests, lowest CPU; higher: lowest latency
+    /// under steady traffic).
+    #[arg(long, default_value_t = 1000)]
+    idle_spin_us: u64,
+
+    /// Threads that predict requests arriving together (from several clients) in
+    /// parallel. 1: the serving thread does everything (lowest CPU use); more raise
+    /// throughput with many clients on a multi-core host.
+    #[arg(long, default_value_t = 1)]
+    workers: usize,
+
+    /// Milliseconds between sweeps that remove the resources of dead clients (killed
+    /// with SIGKILL), freeing their client slots.
+    #[arg(long, default_value_t = 1000)]
+    cleanup_interval_ms: u64,
+
+    /// Log filter (tracing env-filter syntax: error, warn, info, debug, cliff_service=debug).
+    /// RUST_LOG overrides it.
+    #[arg(long, default_value = "info")]
+    log: String,
+
+    /// Write the process id to this file once ready.
+    #[arg(long)]
+    pid_file: Option<PathBuf>,
+}
+
+fn main() -> ExitCode {
+    let args = Args::parse();
+    let filter = tracing_subscriber::EnvFilter::try_from_default_env()
+        .or_else(|_| tracing_subscriber::EnvFilter::try_new(&args.log))
+        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info"));
+    tracing_subscriber::fmt()
+        .with_env_filter(filter)
+        .with_writer(std::io::stderr)
+        .with_ansi(std::io::IsTerminal::is_terminal(&std::io::stderr()))
+        .init();
+    iceoryx2::prelude::set_log_level_from_env_or(iceoryx2::prelude::LogLevel::Error);
+
+    let stop = Arc::new(AtomicBool::new(false));
+    let reload = Arc::new(AtomicBool::new(false));
+    use signal_hook::consts::{SIGHUP, SIGINT, SIGTERM};
+    for (sig, flag) in [(SIGINT, &stop), (SIGTERM, &stop), (SIGHUP, &reload)] {
+        // a second SIGINT/SIGTERM while shutting down exits at once
+        if sig != SIGHUP
+            && let Err(e) = signal_hook::flag::register_conditional_shutdown(sig, 1, flag.clone())
+        {
+            eprintln!("error: cannot install the signal handler: {e}");
+            return ExitCode::FAILURE;
+        }
+        if let Err(e) = signal_hook::flag::register(sig, flag.clone()) {
+            eprintln!("error: cannot install the signal handler: {e}");
+            return ExitCode::FAILURE;
+        }
+    }
+
+    let settings = Settings {
+        service: args.service,
+        prefix: args.prefix.filter(|p| !p.is_empty()),
+        maps: args.maps,
+        limits: Limits {
+            max_agents: args.max_agents,
+            max_k: args.max_k,
+            max_steps: args.max_steps,
+            max_history: args.max_history,
+        },
+        max_clients: args.max_clients,
+        max_active_requests: args.max_active_requests,
+        idle_spin: Duration::from_micros(args.idle_spin_us),
+        cleanup_interval: Duration::from_millis(args.cleanup_interval_ms.max(1)),
+        workers: args.workers,
+    };
+    let mut daemon = match Daemon::new(settings) {
+        Ok(d) => d,
+        Err(e) => {
+            tracing::error!("{e}");
+            eprintln!("error: {e}");
+            return ExitCode::FAILURE;
+        }
+    };
+    if let Some(p) = &args.pid_file
+        && let Err(e) = std::fs::write(p, format!("{}\n", std::process::id()))
+    {
+        eprintln!("error: cannot write the pid file {}: {e}", p.display());
+        return ExitCode::FAILURE;
+    }
+    println!("{}", daemon.ready_line());
+    let _ = std::io::stdout().flush();
+    daemon.run(&stop, &reload);
+    let s = daemon.stats();
+    println!(
+        "cliffd stopped: {} requests served, {} rejected, {} responses not delivered",
+        s.served, s.rejected, s.failed
+    );
+    ExitCode::SUCCESS
+}

@@ -1,0 +1,522 @@
+//! The C ABI: `client/include/cliff_client.h` (generated from this file by cbindgen;
+//! a test fails when the committed header is stale).
+//!
+//! Objects are opaque pointers; every fallible call returns a `CLIFF_*` result code and
+//! leaves a message for [`cliff_last_error`]. A prediction is read in place from shared
+//! memory: the pointers in [`CliffPrediction`] stay valid until the next
+//! [`cliff_predict`], [`cliff_prediction_release`] or [`cliff_client_free`] on the same
+//! client. A client is not thread-safe: use one per thread.
+//!
+//! ```c
+//! CliffClient *c;
+//! if (cliff_client_connect("cliff/predict", NULL, &c) != CLIFF_OK) { puts(cliff_last_error()); }
+//! CliffParams p; cliff_params_default(&p);
+//! CliffRequest *r = cliff_request_new("demo", &p);
+//! double t[] = {0.0, 0.4}, x[] = {-10.0, -9.5}, y[] = {0.5, 0.5};
+//! cliff_request_add_agent(r, 2, t, x, y, NULL, NULL);
+//! CliffPrediction out;
+//! if (cliff_predict(c, r, &out) == CLIFF_OK) { /* out.positions[2 * i], out.lens[s] */ }
+//! ```
+
+use std::cell::RefCell;
+use std::ffi::{CStr, CString, c_char};
+use std::ptr;
+use std::time::Duration;
+
+use cliff::predict::{HeadingRule, Method, Params};
+
+use crate::protocol::{HEADING_PAPER, METHOD_CVM, Observation, Status};
+use crate::{Client, ClientOptions, Error, RawResponse, Request, WaitMode, split_payload};
+
+/// Success.
+pub const CLIFF_OK: i32 = 0;
+/// No daemon serves the service.
+pub const CLIFF_ERR_NO_DAEMON: i32 = 1;
+/// The daemon died or stopped while the request was in flight.
+pub const CLIFF_ERR_DAEMON_GONE: i32 = 2;
+/// No response within the deadline.
+pub const CLIFF_ERR_DEADLINE: i32 = 3;
+/// The daemon refused the request; `CliffPrediction.status` holds the status code.
+pub const CLIFF_ERR_REJECTED: i32 = 4;
+/// A bad argument (null pointer, bad map name, mismatched lengths).
+pub const CLIFF_ERR_INVALID: i32 = 5;
+/// The response broke the protocol.
+pub const CLIFF_ERR_PROTOCOL: i32 = 6;
+/// iceoryx2 failed.
+pub const CLIFF_ERR_IPC: i32 = 7;
+
+/// Wait mode: busy-poll.
+pub const CLIFF_WAIT_SPIN: u32 = 0;
+/// Wait mode: busy-poll, then sleep (the default).
+pub const CLIFF_WAIT_HYBRID: u32 = 1;
+/// Wait mode: sleep on the daemon's event.
+pub const CLIFF_WAIT_BLOCK: u32 = 2;
+
+/// Prediction parameters (see `cliff::predict::Params`).
+#[repr(C)]
+#[derive(Debug, Clone, Copy)]
+pub struct CliffParams {
+    /// 0: CLiFF-LHMP, 1: constant velocity.
+    pub method: u32,
+    /// 0: circular mean (reference), 1: the paper's rule.
+    pub heading_rule: u32,
+    /// Samples per agent.
+    pub k: u32,
+    /// Time step (s).
+    pub dt: f64,
+    /// Horizon (s); steps = floor(horizon / dt).
+    pub horizon: f64,
+    /// Kernel parameter.
+    pub beta: f64,
+    /// Sampling radius (m).
+    pub radius: f64,
+    /// Seed.
+    pub seed: u64,
+}
+
+/// A prediction, read in place; valid until the next call on the client.
+#[repr(C)]
+#[derive(Debug, Clone, Copy)]
+pub struct CliffPrediction {
+    /// The request id the daemon echoed.
+    pub request_id: u64,
+    /// Status code (0 ok; on `CLIFF_ERR_REJECTED` the reason, see `cliff_status_name`).
+    pub status: u32,
+    /// Agents.
+    pub agents: u32,
+    /// Samples per agent.
+    pub k: u32,
+    /// Steps per sample.
+    pub steps: u32,
+    /// `agents * k * steps` points as x, y pairs (`2 * agents * k * steps` floats),
+    /// sample-major: sample `a * k + s`, step `j` at `((a * k + s) * steps + j) * 2`.
+    pub positions: *const f32,
+    /// Valid length of each of the `agents * k` samples (NaN past it).
+    pub lens: *const u32,
+}
+
+/// Opaque client handle.
+pub struct CliffClient {
+    client: Client,
+    held: Option<RawResponse>,
+}
+
+/// Opaque request handle.
+pub struct CliffRequest {
+    request: Request,
+}
+
+thread_local! {
+    static LAST_ERROR: RefCell<CString> = RefCell::new(CString::default());
+}
+
+fn set_error(msg: impl Into<String>) {
+    let msg = msg.into().replace('\0', " ");
+    LAST_ERROR.with(|e| *e.borrow_mut() = CString::new(msg).unwrap_or_default());
+}
+
+fn code_of(e: &Error) -> i32 {
+    match e {
+        Error::NoDaemon { .. } => CLIFF_ERR_NO_DAEMON,
+        Error::DaemonGone { .. } => CLIFF_ERR_DAEMON_GONE,
+        Error::Deadline { .. } => CLIFF_ERR_DEADLINE,
+        Error::Rejected(_) => CLIFF_ERR_REJECTED,
+        Error::InvalidRequest(_) => CLIFF_ERR_INVALID,
+        Error::Protocol(_) => CLIFF_ERR_PROTOCOL,
+        Error::Ipc(_) => CLIFF_ERR_IPC,
+    }
+}
+
+fn fail(e: &Error) -> i32 {
+    set_error(e.to_string());
+    code_of(e)
+}
+
+fn invalid(msg: &str) -> i32 {
+    set_error(msg);
+    CLIFF_ERR_INVALID
+}
+
+/// # Safety
+/// `p` is null or a NUL-terminated string.
+unsafe fn str_arg<'a>(p: *const c_char, what: &str) -> Result<&'a str, i32> {
+    if p.is_null() {
+        return Err(invalid(&format!("{what} is NULL")));
+    }
+    // SAFETY: the caller passes a NUL-terminated string
+    unsafe { CStr::from_ptr(p) }
+        .to_str()
+        .map_err(|_| invalid(&format!("{what} is not UTF-8")))
+}
+
+fn params_from(p: &CliffParams) -> Params {
+    Params {
+        method: if p.method == METHOD_CVM {
+            Method::Cvm
+        } else {
+            Method::Cliff
+        },
+        heading: if p.heading_rule == HEADING_PAPER {
+            HeadingRule::Paper
+        } else {
+            HeadingRule::CircularMean
+        },
+        k: p.k as usize,
+        dt: p.dt,
+        horizon: p.horizon,
+        beta: p.beta,
+        radius: p.radius,
+        seed: p.seed,
+    }
+}
+
+/// The message of the last failed call on this thread (empty when none). Valid until
+/// the next failing call on this thread.
+#[unsafe(no_mangle)]
+pub extern "C" fn cliff_last_error() -> *const c_char {
+    LAST_ERROR.with(|e| e.borrow().as_ptr())
+}
+
+/// The name of a status code (`"unknown-map"`, ...); a static string.
+#[unsafe(no_mangle)]
+pub extern "C" fn cliff_status_name(status: u32) -> *const c_char {
+    const NAMES: [&CStr; 16] = [
+        c"ok",
+        c"bad-version",
+        c"unknown-map",
+        c"unknown-method",
+        c"non-finite",
+        c"bad-k",
+        c"bad-steps",
+        c"bad-agents",
+        c"history-too-short",
+        c"history-not-increasing",
+        c"bad-value",
+        c"bad-layout",
+        c"history-too-long",
+        c"unknown-kind",
+        c"reload-failed",
+        c"internal",
+    ];
+    match Status::from_code(status) {
+        Some(s) => NAMES[s.code() as usize].as_ptr(),
+        None => c"unknown-status".as_ptr(),
+    }
+}
+
+/// Fill `out` with the default parameters (k 20, dt 0.4 s, horizon 12 s, beta 1,
+/// radius 0.7071 m, seed 0, CLiFF-LHMP).
+///
+/// # Safety
+/// `out` is null or points to writable memory for a `CliffParams`.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn cliff_params_default(out: *mut CliffParams) {
+    if out.is_null() {
+        return;
+    }
+    let p = Params::default();
+    let v = CliffParams {
+        method: 0,
+        heading_rule: 0,
+        k: p.k as u32,
+        dt: p.dt,
+        horizon: p.horizon,
+        beta: p.beta,
+        radius: p.radius,
+        seed: p.seed,
+    };
+    // SAFETY: checked non-null; the caller guarantees it is writable
+    unsafe { out.write(v) };
+}
+
+/// Connect to the daemon serving `service` (NULL: "cliff/predict"). `prefix` is the
+/// iceoryx2 prefix (NULL: the CLIFF_IPC_PREFIX environment variable, else the default).
+/// Wait mode hybrid, deadline 1 s. On success `*out` holds the client.
+///
+/// # Safety
+/// `service` and `prefix` are null or NUL-terminated strings; `out` is a valid pointer.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn cliff_client_connect(
+    service: *const c_char,
+    prefix: *const c_char,
+    out: *mut *mut CliffClient,
+) -> i32 {
+    if out.is_null() {
+        return invalid("out is NULL");
+    }
+    let service = if service.is_null() {
+        crate::DEFAULT_SERVICE
+    } else {
+        // SAFETY: non-null, NUL-terminated by contract
+        match unsafe { str_arg(service, "service") } {
+            Ok(s) => s,
+            Err(c) => return c,
+        }
+    };
+    let mut options = ClientOptions::default();
+    if !prefix.is_null() {
+        // SAFETY: non-null, NUL-terminated by contract
+        match unsafe { str_arg(prefix, "prefix") } {
+            Ok(p) => options.prefix = Some(p.to_string()),
+            Err(c) => return c,
+        }
+    }
+    match Client::connect_with(service, options) {
+        Ok(client) => {
+            let b = Box::new(CliffClient { client, held: None });
+            // SAFETY: checked non-null
+            unsafe { out.write(Box::into_raw(b)) };
+            CLIFF_OK
+        }
+        Err(e) => fail(&e),
+    }
+}
+
+/// Close the client (releases a held prediction). NULL is ignored.
+///
+/// # Safety
+/// `client` is null or came from `cliff_client_connect` and is not used afterwards.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn cliff_client_free(client: *mut CliffClient) {
+    if !client.is_null() {
+        // SAFETY: allocated by cliff_client_connect, freed once
+        drop(unsafe { Box::from_raw(client) });
+    }
+}
+
+/// Set the wait mode (`CLIFF_WAIT_*`) and, for hybrid, how long to spin (us).
+///
+/// # Safety
+/// `client` is a valid client.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn cliff_client_set_wait(
+    client: *mut CliffClient,
+    mode: u32,
+    spin_us: u64,
+) -> i32 {
+    // SAFETY: valid client by contract
+    let Some(c) = (unsafe { client.as_mut() }) else {
+        return invalid("client is NULL");
+    };
+    let wait = match mode {
+        CLIFF_WAIT_SPIN => WaitMode::Spin,
+        CLIFF_WAIT_HYBRID => WaitMode::Hybrid,
+        CLIFF_WAIT_BLOCK => WaitMode::Block,
+        _ => return invalid("unknown wait mode"),
+    };
+    c.client.set_wait(wait);
+    c.client.set_spin(Duration::from_micros(spin_us));
+    CLIFF_OK
+}
+
+/// Set the deadline of each later call (us).
+///
+/// # Safety
+/// `client` is a valid client.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn cliff_client_set_deadline_us(
+    client: *mut CliffClient,
+    deadline_us: u64,
+) -> i32 {
+    // SAFETY: valid client by contract
+    let Some(c) = (unsafe { client.as_mut() }) else {
+        return invalid("client is NULL");
+    };
+    c.client.set_deadline(Duration::from_micros(deadline_us));
+    CLIFF_OK
+}
+
+/// A new request against map `map` with `params` (NULL: defaults). NULL on a bad map
+/// name (see `cliff_last_error`).
+///
+/// # Safety
+/// `map` is a NUL-terminated string; `params` is null or valid.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn cliff_request_new(
+    map: *const c_char,
+    params: *const CliffParams,
+) -> *mut CliffRequest {
+    // SAFETY: NUL-terminated by contract
+    let Ok(map) = (unsafe { str_arg(map, "map") }) else {
+        return ptr::null_mut();
+    };
+    // SAFETY: null or valid by contract
+    let params = unsafe { params.as_ref() }
+        .map(params_from)
+        .unwrap_or_default();
+    match Request::new(map, &params) {
+        Ok(request) => Box::into_raw(Box::new(CliffRequest { request })),
+        Err(e) => {
+            fail(&e);
+            ptr::null_mut()
+        }
+    }
+}
+
+/// Free a request. NULL is ignored.
+///
+/// # Safety
+/// `request` is null or came from `cliff_request_new` and is not used afterwards.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn cliff_request_free(request: *mut CliffRequest) {
+    if !request.is_null() {
+        // SAFETY: allocated by cliff_request_new, freed once
+        drop(unsafe { Box::from_raw(request) });
+    }
+}
+
+/// Replace the parameters (keeps map and agents).
+///
+/// # Safety
+/// `request` and `params` are valid.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn cliff_request_set_params(
+    request: *mut CliffRequest,
+    params: *const CliffParams,
+) -> i32 {
+    // SAFETY: valid by contract
+    let (Some(r), Some(p)) = (unsafe { request.as_mut() }, unsafe { params.as_ref() }) else {
+        return invalid("request or params is NULL");
+    };
+    r.request.set_params(&params_from(p));
+    CLIFF_OK
+}
+
+/// Remove all agents (keeps the memory for the next ones).
+///
+/// # Safety
+/// `request` is valid.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn cliff_request_clear(request: *mut CliffRequest) -> i32 {
+    // SAFETY: valid by contract
+    let Some(r) = (unsafe { request.as_mut() }) else {
+        return invalid("request is NULL");
+    };
+    r.request.clear_agents();
+    CLIFF_OK
+}
+
+/// Add an agent with `n` history rows, oldest first: times `t`, positions `x`, `y`, and
+/// optionally the tracker's `speed` and `heading` (both NULL: the velocity comes from
+/// the positions; then `n` must be at least 2).
+///
+/// # Safety
+/// `request` is valid; `t`, `x`, `y` (and `speed`, `heading` when not NULL) point to
+/// `n` doubles each.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn cliff_request_add_agent(
+    request: *mut CliffRequest,
+    n: usize,
+    t: *const f64,
+    x: *const f64,
+    y: *const f64,
+    speed: *const f64,
+    heading: *const f64,
+) -> i32 {
+    // SAFETY: valid by contract
+    let Some(r) = (unsafe { request.as_mut() }) else {
+        return invalid("request is NULL");
+    };
+    if n == 0 || t.is_null() || x.is_null() || y.is_null() {
+        return invalid("an agent needs n > 0 rows and non-NULL t, x, y");
+    }
+    if speed.is_null() != heading.is_null() {
+        return invalid("give both speed and heading, or neither");
+    }
+    // SAFETY: each points to n doubles by contract
+    let (t, x, y) = unsafe {
+        (
+            std::slice::from_raw_parts(t, n),
+            std::slice::from_raw_parts(x, n),
+            std::slice::from_raw_parts(y, n),
+        )
+    };
+    if speed.is_null() {
+        r.request
+            .add_agent((0..n).map(|i| Observation::position(t[i], x[i], y[i])));
+    } else {
+        // SAFETY: both non-null and n doubles long by contract
+        let (s, h) = unsafe {
+            (
+                std::slice::from_raw_parts(speed, n),
+                std::slice::from_raw_parts(heading, n),
+            )
+        };
+        r.request
+            .add_agent((0..n).map(|i| Observation::with_velocity(t[i], x[i], y[i], s[i], h[i])));
+    }
+    CLIFF_OK
+}
+
+/// Send the request and wait (wait mode and deadline of the client). On `CLIFF_OK`
+/// `*out` describes the batch, read in place from shared memory until the next call on
+/// this client; on `CLIFF_ERR_REJECTED` `out->status` holds the reason.
+///
+/// # Safety
+/// `client`, `request` and `out` are valid.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn cliff_predict(
+    client: *mut CliffClient,
+    request: *const CliffRequest,
+    out: *mut CliffPrediction,
+) -> i32 {
+    // SAFETY: valid by contract
+    let (Some(c), Some(r)) = (unsafe { client.as_mut() }, unsafe { request.as_ref() }) else {
+        return invalid("client or request is NULL");
+    };
+    if out.is_null() {
+        return invalid("out is NULL");
+    }
+    c.held = None;
+    let mut pred = CliffPrediction {
+        request_id: 0,
+        status: 0,
+        agents: 0,
+        k: 0,
+        steps: 0,
+        positions: ptr::null(),
+        lens: ptr::null(),
+    };
+    let deadline = c.client.options().deadline;
+    let result = c
+        .client
+        .round_trip(r.request.header(), r.request.rows(), deadline);
+    let code = match result {
+        Ok(resp) => {
+            let h = *resp.user_header();
+            let (pos, lens) = split_payload(&h, resp.payload());
+            pred = CliffPrediction {
+                request_id: h.request_id,
+                status: h.status,
+                agents: h.agents,
+                k: h.k,
+                steps: h.steps,
+                positions: pos.as_ptr().cast(),
+                lens: lens.as_ptr(),
+            };
+            c.held = Some(resp);
+            CLIFF_OK
+        }
+        Err(e) => {
+            if let Error::Rejected(rej) = &e {
+                pred.status = rej.status.code();
+            }
+            fail(&e)
+        }
+    };
+    // SAFETY: checked non-null
+    unsafe { out.write(pred) };
+    code
+}
+
+/// Give the last prediction's shared memory back to the daemon before the next call.
+///
+/// # Safety
+/// `client` is null or valid.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn cliff_prediction_release(client: *mut CliffClient) {
+    // SAFETY: null or valid by contract
+    if let Some(c) = unsafe { client.as_mut() } {
+        c.held = None;
+    }
+}

@@ -1,0 +1,36 @@
+//! The committed C header matches what cbindgen generates from `src/ffi.rs`.
+
+use std::path::Path;
+
+#[test]
+fn c_header_is_up_to_date() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let config = cbindgen::Config::from_file(dir.join("cbindgen.toml")).expect("cbindgen.toml");
+    let bindings = cbindgen::Builder::new()
+        .with_config(config)
+        .with_src(dir.join("src/ffi.rs"))
+        .generate()
+        .expect("cbindgen generates the header");
+    let mut generated = Vec::new();
+    bindings.write(&mut generated);
+    let path = dir.join("include/cliff_client.h");
+    if std::env::var_os("CLIFF_BLESS").is_some() {
+        std::fs::write(&path, &generated).expect("write the header");
+        return;
+    }
+    let committed = std::fs::read(&path).unwrap_or_default();
+    assert!(
+        committed == generated,
+        "{} is stale: regenerate it with `CLIFF_BLESS=1 cargo test -p cliff-client --test c_header`",
+        path.display()
+    );
+    let text = String::from_utf8(generated).unwrap();
+    for f in [
+        "cliff_client_connect",
+        "cliff_predict",
+        "cliff_request_add_agent",
+        "CLIFF_ERR_DEADLINE",
+    ] {
+        assert!(text.contains(f), "{f} missing from the header");
+    }
+}
