@@ -5,6 +5,8 @@
 //! * [`motion`]: motion state and observed velocity from a history.
 //! * [`predict`]: CLiFF-LHMP and constant-velocity prediction into reusable batches.
 //! * [`eval`]: dataset readers, evaluation protocols and metrics.
+//! * [`plot`]: pictures of maps, predictions and error curves (PNG or SVG).
+//! * [`scene`]: synthetic people walking in the built-in demo hall.
 //!
 //! ```
 //! use cliff::{map::CliffMap, motion::State, predict::{predict, Params, TrajectoryBatch}};
@@ -19,6 +21,8 @@
 pub mod eval;
 pub mod map;
 pub mod motion;
+pub mod plot;
 pub mod predict;
+pub mod scene;
 
 pub use glam;

@@ -19,7 +19,7 @@ fn component(theta: f64, rho: f64, weight: f64) -> Component {
     Component {
         theta,
         rho,
-        cov: [0.12, 0.01, 0.01, 0.04],
+        cov: [0.02, 0.005, 0.005, 0.04],
         weight,
     }
 }

@@ -19,13 +19,18 @@
 //! assert!(near.is_some());
 //! ```
 
+pub mod build;
 mod csv;
 mod demo;
 mod grid;
+mod neighbours;
+pub mod score;
 mod snapshot;
+pub mod update;
 
 use std::f64::consts::TAU;
 use std::path::Path;
+use std::sync::{Arc, RwLock};
 
 use glam::DVec2;
 use rand::distr::Distribution;
@@ -33,9 +38,13 @@ use rand::{Rng, RngExt};
 use rand_distr::StandardNormal;
 use serde::{Deserialize, Serialize};
 
+pub use build::{BuildParams, Observation, build_map};
 pub use csv::{read_csv, read_csv_str, write_csv, write_csv_string};
 pub use grid::GridIndex;
+pub use neighbours::NeighbourTable;
+pub use score::{ScoreParams, ScoreReport, score};
 pub use snapshot::{SNAPSHOT_MAGIC, SNAPSHOT_VERSION, read_snapshot, write_snapshot};
+pub use update::{OnlineMap, UpdateParams};
 
 /// One semi-wrapped normal component of a location's velocity mixture.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -177,8 +186,11 @@ struct DirectionComponent {
     sigma: f64,
 }
 
+/// Most radii whose neighbour tables a map keeps; further radii use the grid scan.
+const MAX_CACHED_RADII: usize = 8;
+
 /// A CLiFF-map: locations on a regular grid with a grid index and sampling tables.
-#[derive(Debug, Clone)]
+#[derive(Debug)]
 pub struct CliffMap {
     locations: Vec<Location>,
     grid: GridIndex,
@@ -188,6 +200,49 @@ pub struct CliffMap {
     comp_start: Vec<u32>,
     table: Vec<DirectionComponent>,
     report: MapReport,
+    /// Neighbour tables built so far, one per sampling radius.
+    neighbours: RwLock<Vec<Arc<NeighbourTable>>>,
+}
+
+impl Clone for CliffMap {
+    fn clone(&self) -> Self {
+        Self {
+            locations: self.locations.clone(),
+            grid: self.grid.clone(),
+            positions: self.positions.clone(),
+            ratios: self.ratios.clone(),
+            comp_start: self.comp_start.clone(),
+            table: self.table.clone(),
+            report: self.report,
+            neighbours: RwLock::new(
+                self.neighbours
+                    .read()
+                    .map(|v| v.clone())
+                    .unwrap_or_default(),
+            ),
+        }
+    }
+}
+
+/// Finds the location CLiFF-LHMP samples from, for one sampling radius (see
+/// [`CliffMap::lookup`]).
+#[derive(Debug, Clone)]
+pub enum Lookup<'a> {
+    /// Through a precomputed neighbour table.
+    Table(Arc<NeighbourTable>),
+    /// Through the grid scan.
+    Grid(&'a CliffMap, f64),
+}
+
+impl Lookup<'_> {
+    /// Same as [`CliffMap::best_near`] for this lookup's radius.
+    #[inline]
+    pub fn best_near(&self, p: DVec2) -> Option<usize> {
+        match self {
+            Lookup::Table(t) => t.best_near(p),
+            Lookup::Grid(m, r) => m.best_near(p, *r),
+        }
+    }
 }
 
 /// Clamp a 2x2 covariance `[a, b; c, d]` to symmetric PSD. Returns the clamped matrix
@@ -222,11 +277,21 @@ pub fn clamp_psd(cov: [f64; 4]) -> ([f64; 4], bool) {
     ([m(0, 0), off, off, m(1, 1)], true)
 }
 
-/// Wrap an angle to `[0, 2pi)`.
+/// Wrap an angle to `[0, 2pi)` (NaN stays NaN).
 #[inline]
 pub fn wrap_2pi(a: f64) -> f64 {
-    let w = a.rem_euclid(TAU);
-    if w >= TAU { 0.0 } else { w }
+    if a.is_nan() || a.abs() >= 1e15 {
+        // Huge or NaN: the slow, general way.
+        let w = a.rem_euclid(TAU);
+        return if w >= TAU { 0.0 } else { w };
+    }
+    // floor(a / 2pi) by the 1.5 * 2^52 rounding trick: branch-free and no libm call
+    // (directions near 0 cross the wrap half of the time, so a branch would mispredict).
+    const MAGIC: f64 = 6_755_399_441_055_744.0;
+    let n = ((a * (1.0 / TAU) - 0.5) + MAGIC) - MAGIC;
+    let w = a - n * TAU;
+    let w = if w < 0.0 { w + TAU } else { w };
+    if w >= TAU { w - TAU } else { w }
 }
 
 impl CliffMap {
@@ -285,6 +350,7 @@ impl CliffMap {
             comp_start,
             table,
             report,
+            neighbours: RwLock::new(Vec::new()),
         })
     }
 
@@ -389,6 +455,37 @@ impl CliffMap {
         best
     }
 
+    /// A [`Lookup`] for `radius`: through a neighbour table, built on first use of the
+    /// radius and kept (up to 8 radii per map, at most 16 MiB each), else through the grid scan. Both give
+    /// the same answers as [`best_near`](Self::best_near).
+    pub fn lookup(&self, radius: f64) -> Lookup<'_> {
+        if let Ok(cache) = self.neighbours.read()
+            && let Some(t) = cache.iter().find(|t| t.radius() == radius)
+        {
+            return Lookup::Table(t.clone());
+        }
+        if !(radius.is_finite() && radius > 0.0) {
+            return Lookup::Grid(self, radius);
+        }
+        let Ok(mut cache) = self.neighbours.write() else {
+            return Lookup::Grid(self, radius);
+        };
+        if let Some(t) = cache.iter().find(|t| t.radius() == radius) {
+            return Lookup::Table(t.clone());
+        }
+        if cache.len() >= MAX_CACHED_RADII {
+            return Lookup::Grid(self, radius);
+        }
+        match NeighbourTable::build(&self.grid, &self.positions, &self.ratios, radius) {
+            Some(t) => {
+                let t = Arc::new(t);
+                cache.push(t.clone());
+                Lookup::Table(t)
+            }
+            None => Lookup::Grid(self, radius),
+        }
+    }
+
     /// The nearest location within `radius` of `p` (ties: the first in order).
     pub fn nearest(&self, p: DVec2, radius: f64) -> Option<usize> {
         let mut best: Option<(f64, usize)> = None;
@@ -424,16 +521,16 @@ pub struct DirectionSampler<'a> {
 }
 
 impl Distribution<f64> for DirectionSampler<'_> {
-    #[inline]
+    #[inline(always)]
     fn sample<R: Rng + ?Sized>(&self, rng: &mut R) -> f64 {
         let u: f64 = rng.random();
-        let mut c = &self.table[0];
-        for e in self.table {
-            c = e;
-            if u < e.cum_weight {
-                break;
-            }
-        }
+        // Branch-free choice: the number of cumulative weights at or below u.
+        let i = self
+            .table
+            .iter()
+            .map(|e| (u >= e.cum_weight) as usize)
+            .sum::<usize>();
+        let c = &self.table[i.min(self.table.len() - 1)];
         let z: f64 = StandardNormal.sample(rng);
         wrap_2pi(c.mu + c.sigma * z)
     }
@@ -561,6 +658,49 @@ mod tests {
     }
 
     #[test]
+    fn neighbour_table_agrees_with_grid_scan_on_real_maps() {
+        use rand::SeedableRng;
+        let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/data");
+        for f in ["thor1/cliffmap.csv", "atc/cliffmap-20121024.csv"] {
+            let m = CliffMap::load(std::path::Path::new(dir).join(f)).unwrap();
+            let (lo, hi) = m.info().extent;
+            let mut rng = rand_xoshiro::Xoshiro256PlusPlus::seed_from_u64(3);
+            for radius in [0.3, 0.5, 0.7071, 1.0, 2.5] {
+                let lookup = m.lookup(radius);
+                assert!(matches!(lookup, Lookup::Table(_)));
+                for _ in 0..20000 {
+                    let p = DVec2::new(
+                        rng.random_range(lo.x - 3.0..hi.x + 3.0),
+                        rng.random_range(lo.y - 3.0..hi.y + 3.0),
+                    );
+                    assert_eq!(
+                        lookup.best_near(p),
+                        m.best_near(p, radius),
+                        "{f} r {radius} at {p}"
+                    );
+                }
+                // points exactly on cell borders and on locations
+                for l in m.locations().iter().take(200) {
+                    for d in [
+                        DVec2::ZERO,
+                        DVec2::splat(0.25),
+                        DVec2::new(0.5, 0.0),
+                        DVec2::new(radius, 0.0),
+                    ] {
+                        let p = l.position + d;
+                        assert_eq!(
+                            lookup.best_near(p),
+                            m.best_near(p, radius),
+                            "{f} r {radius} at {p}"
+                        );
+                    }
+                }
+            }
+            assert!(matches!(m.lookup(f64::NAN), Lookup::Grid(..)));
+        }
+    }
+
+    #[test]
     fn rejects_bad_locations() {
         assert!(matches!(CliffMap::new(vec![]), Err(MapError::Empty)));
         let mut l = loc(0.0, 0.0, 1.0, vec![comp(0.0, 1.0)]);
@@ -607,6 +747,22 @@ mod tests {
         assert!((5000..7500).contains(&wrapped), "{wrapped}");
         let mean = wrap_2pi(s.atan2(co));
         assert!((mean - 0.05).abs() < 0.01, "{mean}");
+    }
+
+    #[test]
+    fn wrap_2pi_handles_every_range() {
+        for (a, w) in [
+            (0.0, 0.0),
+            (-0.5, TAU - 0.5),
+            (TAU, 0.0),
+            (3.0 * TAU + 1.0, 1.0),
+            (-5.0 * TAU - 1.0, TAU - 1.0),
+            (1.0, 1.0),
+        ] {
+            assert!((wrap_2pi(a) - w).abs() < 1e-12, "{a}: {}", wrap_2pi(a));
+        }
+        assert!(wrap_2pi(-1e-300) < TAU && wrap_2pi(-1e-300) >= 0.0);
+        assert!(wrap_2pi(f64::NAN).is_nan());
     }
 
     #[test]

@@ -49,7 +49,7 @@ pub struct PredictionArgs {
 }
 
 impl PredictionArgs {
-    fn settings(&self) -> Settings {
+    pub(crate) fn settings(&self) -> Settings {
         Settings {
             protocol: self.protocol,
             obs: self.obs,
@@ -60,7 +60,7 @@ impl PredictionArgs {
         }
     }
 
-    fn params(&self, method: Method, seed: u64) -> Params {
+    pub(crate) fn params(&self, method: Method, seed: u64) -> Params {
         Params {
             method,
             k: self.k,
@@ -127,7 +127,7 @@ pub struct PredictArgs {
     pub out: Option<PathBuf>,
 }
 
-fn load_tracks(paths: &[PathBuf], format: Format) -> Result<Vec<Track>> {
+pub(crate) fn load_tracks(paths: &[PathBuf], format: Format) -> Result<Vec<Track>> {
     for p in paths {
         if !p.exists() {
             bail!("track file {} does not exist", p.display());

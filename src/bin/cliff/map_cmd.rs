@@ -1,10 +1,12 @@
-//! `cliff map ...`: inspect and convert maps.
+//! `cliff map ...`: inspect, convert, build, score and update maps.
 
 use std::path::PathBuf;
 
 use anyhow::{Context, Result};
 use clap::Subcommand;
 use cliff::map::CliffMap;
+
+use crate::map_build_cmd::{BuildArgs, ScoreArgs, UpdateArgs};
 
 /// Map subcommands.
 #[derive(Subcommand)]
@@ -26,6 +28,26 @@ pub enum MapCommand {
         /// Output map (.csv or .cliff).
         output: PathBuf,
     },
+    /// Build a CLiFF-map from recorded trajectories (mean shift + EM per grid node).
+    ///
+    /// Example: cliff map build --tracks ../shared/data/atc/train/*.csv --format atc
+    /// --grid 1 --radius 1 --out atc-train.csv
+    Build(BuildArgs),
+    /// Score a map on held-out trajectories: mean log-likelihood of the observed
+    /// velocities at the nearest location.
+    ///
+    /// Example: cliff map score --map atc-train.csv --tracks ../shared/data/atc/dev/*.csv
+    /// --format atc --json
+    Score(ScoreArgs),
+    /// Update a map with a new batch of trajectories, without the old data.
+    ///
+    /// Online learning: the map's counts decay, components are updated from their
+    /// sufficient statistics, samples the map does not explain get new components,
+    /// near-duplicates are merged. The result goes to --out.
+    ///
+    /// Example: cliff map update --map hour9.csv --count-scale 1523 --tracks
+    /// ../shared/data/atc/train/atc-1024-10_train.csv --format atc --out hour10.csv
+    Update(UpdateArgs),
 }
 
 /// Load the map at `path`, or the built-in demo scene when `None`.
@@ -69,6 +91,9 @@ pub fn run(cmd: MapCommand) -> Result<()> {
             );
             Ok(())
         }
+        MapCommand::Build(a) => crate::map_build_cmd::build(a),
+        MapCommand::Score(a) => crate::map_build_cmd::score(a),
+        MapCommand::Update(a) => crate::map_build_cmd::update(a),
         MapCommand::Convert { input, output } => {
             let m = load_map(Some(&input))?;
             m.save(&output)

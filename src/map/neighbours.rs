@@ -1,0 +1,189 @@
+//! Per-radius candidate lists: the fast path of [`CliffMap::best_near`](super::CliffMap::best_near).
+//!
+//! For a given sampling radius, every grid cell (and a margin of cells around the map)
+//! lists the locations that can lie within the radius of some point of the cell, sorted
+//! by observation ratio (largest first, then by index). The location CLiFF-LHMP samples
+//! from is then the first candidate that is actually within the radius.
+//!
+//! Each cell is further split into `n x n` sub-cells (n = 16, 8 or 4: the finest whose
+//! table fits [`MAX_SUB_CELLS`]). Where one location is the
+//! answer for every point of a sub-cell (the usual case), or none is near any of its
+//! points, the sub-cell stores that answer, and a query is a single table load; only
+//! sub-cells on a boundary between answers scan the cell's candidates.
+
+use glam::DVec2;
+
+use super::GridIndex;
+
+/// Largest sub-cell table (entries of 4 bytes) one radius gets: 16 MiB.
+pub const MAX_SUB_CELLS: usize = 4 << 20;
+/// Sub-cells per cell along each axis, as powers of two, finest first.
+const SUB_SHIFTS: [u32; 3] = [4, 3, 2];
+/// Sub-cell code: no location is near any point of the sub-cell.
+const NONE_NEAR: u32 = u32::MAX;
+/// Sub-cell code: the answer varies within the sub-cell; scan the cell's candidates.
+const SCAN: u32 = u32::MAX - 1;
+/// Safety margin (m) for deciding a sub-cell's answer, larger than any rounding.
+const MARGIN: f64 = 1e-9;
+/// Largest number of candidate entries built.
+const MAX_ENTRIES: usize = 16_000_000;
+
+#[derive(Debug, Clone, Copy)]
+struct Candidate {
+    position: DVec2,
+    index: u32,
+}
+
+/// Candidate lists for one radius.
+#[derive(Debug)]
+pub struct NeighbourTable {
+    radius: f64,
+    r2: f64,
+    origin: DVec2,
+    inv_sub: f64,
+    /// log2 of the sub-cells per cell along an axis.
+    shift: u32,
+    nx: usize,
+    ny: usize,
+    offsets: Vec<u32>,
+    candidates: Vec<Candidate>,
+    /// Per sub-cell: a location index, [`NONE_NEAR`] or [`SCAN`].
+    sub: Vec<u32>,
+}
+
+impl NeighbourTable {
+    /// Build the table for `radius`, or `None` when it would be too large.
+    pub(super) fn build(
+        grid: &GridIndex,
+        positions: &[DVec2],
+        ratios: &[f64],
+        radius: f64,
+    ) -> Option<Self> {
+        let step = grid.step();
+        let margin = (radius / step).ceil() as usize + 1;
+        let (gx, gy) = grid.dims();
+        let nx = gx + 2 * margin;
+        let ny = gy + 2 * margin;
+        let cells = nx.checked_mul(ny)?;
+        let shift = *SUB_SHIFTS
+            .iter()
+            .find(|&&s| cells.saturating_mul(1 << (2 * s)) <= MAX_SUB_CELLS)?;
+        let sub_n = 1usize << shift;
+        let origin = grid.origin() - DVec2::splat(margin as f64 * step);
+        let r2 = radius * radius;
+        let mut offsets = Vec::with_capacity(nx * ny + 1);
+        let mut candidates = Vec::new();
+        let mut cell_list: Vec<u32> = Vec::new();
+        // A cell (cx, cy) holds the points whose nearest cell centre it is:
+        // the square of side `step` around origin + (cx, cy) * step.
+        let half = 0.5 * step;
+        for cy in 0..ny {
+            for cx in 0..nx {
+                offsets.push(candidates.len() as u32);
+                let centre = origin + DVec2::new(cx as f64, cy as f64) * step;
+                cell_list.clear();
+                // Superset query: everything within radius + half-diagonal of the centre.
+                grid.for_each_candidate(
+                    centre,
+                    radius + half * std::f64::consts::SQRT_2 + 1e-9,
+                    |i| {
+                        // Exact test: distance from the location to the cell square.
+                        let d = (positions[i] - centre).abs() - DVec2::splat(half);
+                        let d = d.max(DVec2::ZERO);
+                        if d.length_squared() < r2 + 1e-12 {
+                            cell_list.push(i as u32);
+                        }
+                    },
+                );
+                cell_list.sort_by(|&a, &b| {
+                    ratios[b as usize]
+                        .total_cmp(&ratios[a as usize])
+                        .then(a.cmp(&b))
+                });
+                candidates.extend(cell_list.iter().map(|&i| Candidate {
+                    position: positions[i as usize],
+                    index: i,
+                }));
+                if candidates.len() > MAX_ENTRIES {
+                    return None;
+                }
+            }
+        }
+        offsets.push(candidates.len() as u32);
+        // Resolve the sub-cells.
+        let h = step / sub_n as f64;
+        let snx = nx * sub_n;
+        let mut sub = vec![SCAN; snx * ny * sub_n];
+        let (lo_r2, hi_r2) = (
+            (radius - MARGIN).max(0.0).powi(2),
+            (radius + MARGIN).powi(2),
+        );
+        for sy in 0..ny * sub_n {
+            for sx in 0..snx {
+                let cell = (sy >> shift) * nx + (sx >> shift);
+                let list = &candidates[offsets[cell] as usize..offsets[cell + 1] as usize];
+                // The sub-cell is the square of side h around `centre`.
+                let centre = origin
+                    + DVec2::new(
+                        sx as f64 + 0.5 - sub_n as f64 / 2.0,
+                        sy as f64 + 0.5 - sub_n as f64 / 2.0,
+                    ) * h;
+                let half = DVec2::splat(h / 2.0);
+                let min_d2 = |q: DVec2| {
+                    ((q - centre).abs() - half)
+                        .max(DVec2::ZERO)
+                        .length_squared()
+                };
+                let max_d2 = |q: DVec2| ((q - centre).abs() + half).length_squared();
+                // The first candidate (by ratio) that can be near some point of the sub-cell.
+                sub[sy * snx + sx] = match list.iter().find(|c| min_d2(c.position) < hi_r2) {
+                    None => NONE_NEAR,
+                    Some(c) if max_d2(c.position) < lo_r2 => c.index,
+                    Some(_) => SCAN,
+                };
+            }
+        }
+        Some(Self {
+            radius,
+            r2,
+            origin,
+            inv_sub: sub_n as f64 / step,
+            shift,
+            nx,
+            ny,
+            offsets,
+            candidates,
+            sub,
+        })
+    }
+
+    /// The radius this table answers for.
+    pub fn radius(&self) -> f64 {
+        self.radius
+    }
+
+    /// The location with the largest observation ratio strictly within the radius of
+    /// `p` (ties: the lowest index), as [`CliffMap::best_near`](super::CliffMap::best_near).
+    #[inline]
+    pub fn best_near(&self, p: DVec2) -> Option<usize> {
+        let half = (1u32 << self.shift) as f64 / 2.0;
+        let f = (p - self.origin) * self.inv_sub + DVec2::splat(half);
+        let (snx, sny) = (self.nx << self.shift, self.ny << self.shift);
+        if !(f.x >= 0.0 && f.y >= 0.0 && f.x < snx as f64 && f.y < sny as f64) {
+            // Outside the map and its margin (or NaN): nothing can be near.
+            return None;
+        }
+        let (sx, sy) = (f.x as usize, f.y as usize);
+        match self.sub[sy * snx + sx] {
+            NONE_NEAR => return None,
+            SCAN => {}
+            i => return Some(i as usize),
+        }
+        let cell = (sy >> self.shift) * self.nx + (sx >> self.shift);
+        let (a, b) = (self.offsets[cell] as usize, self.offsets[cell + 1] as usize);
+        self.candidates[a..b]
+            .iter()
+            .find(|c| c.position.distance_squared(p) < self.r2)
+            .map(|c| c.index as usize)
+    }
+}

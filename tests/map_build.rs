@@ -1,0 +1,356 @@
+//! Building, scoring and updating CLiFF-maps: synthetic recovery and real ATC data.
+//!
+//! The ATC tests share one map built from all of atc/train (built once per test
+//! binary). Figures are printed (`--nocapture`) for the report.
+
+use std::f64::consts::PI;
+use std::path::{Path, PathBuf};
+use std::sync::OnceLock;
+
+use cliff::eval::dataset::{Format, read_many};
+use cliff::map::CliffMap;
+use cliff::map::build::{
+    BuildParams, Built, FitParams, MeanShift, Observation, build_map, fit_mixture,
+    observations_from_tracks, wrap_pi,
+};
+use cliff::map::score::{ScoreParams, ScoreReport, score};
+use cliff::map::update::{OnlineMap, UpdateParams};
+use cliff::map::wrap_2pi;
+use rand::SeedableRng;
+use rand_distr::{Distribution, StandardNormal};
+
+fn data(rel: &str) -> PathBuf {
+    Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/data")).join(rel)
+}
+
+fn atc_files(dir: &str, hours: &[u32]) -> Vec<PathBuf> {
+    let kind = if dir == "train" { "train" } else { "test" };
+    hours
+        .iter()
+        .map(|h| data(&format!("atc/{dir}/atc-1024-{h}_{kind}.csv")))
+        .collect()
+}
+
+const TRAIN_HOURS: [u32; 11] = [9, 10, 11, 13, 14, 15, 16, 17, 18, 19, 20];
+const DEV_HOURS: [u32; 6] = [9, 11, 13, 15, 17, 19];
+
+fn atc_obs(files: &[PathBuf]) -> Vec<Observation> {
+    observations_from_tracks(&read_many(files, Format::Atc).unwrap())
+}
+
+fn dev_obs() -> &'static Vec<Observation> {
+    static DEV: OnceLock<Vec<Observation>> = OnceLock::new();
+    DEV.get_or_init(|| atc_obs(&atc_files("dev", &DEV_HOURS)))
+}
+
+/// The map built from all of atc/train (1 m grid, radius 1 m), built once.
+fn train_map() -> &'static Built {
+    static MAP: OnceLock<Built> = OnceLock::new();
+    MAP.get_or_init(|| {
+        let obs = atc_obs(&atc_files("train", &TRAIN_HOURS));
+        build_map(&obs, &BuildParams::default()).unwrap()
+    })
+}
+
+fn atc_score(map: &CliffMap, obs: &[Observation]) -> ScoreReport {
+    score(map, obs, &ScoreParams::default()).unwrap()
+}
+
+fn show(name: &str, s: &ScoreReport) {
+    println!(
+        "{name:<28} mean {:.4}  median {:.4}  below -10 {:.2} %  unmatched {} of {}",
+        s.mean_log_likelihood,
+        s.median_log_likelihood,
+        100.0 * s.share_below,
+        s.unmatched,
+        s.observations
+    );
+}
+
+/// Draw from a semi-wrapped normal mixture: (theta, rho, cov, weight).
+fn draw(mix: &[([f64; 2], [f64; 3], f64)], n: usize, seed: u64) -> Vec<[f64; 2]> {
+    let mut rng = rand_xoshiro::Xoshiro256PlusPlus::seed_from_u64(seed);
+    let mut out = Vec::with_capacity(n);
+    while out.len() < n {
+        let u: f64 = rand::RngExt::random(&mut rng);
+        let mut acc = 0.0;
+        let (mu, c, _) = mix
+            .iter()
+            .find(|m| {
+                acc += m.2;
+                u < acc
+            })
+            .unwrap_or(mix.last().unwrap());
+        // Cholesky of [[a, b], [b, d]].
+        let l11 = c[0].sqrt();
+        let l21 = c[1] / l11;
+        let l22 = (c[2] - l21 * l21).sqrt();
+        let z1: f64 = StandardNormal.sample(&mut rng);
+        let z2: f64 = StandardNormal.sample(&mut rng);
+        let rho = mu[1] + l21 * z1 + l22 * z2;
+        if rho > 0.0 {
+            out.push([wrap_2pi(mu[0] + l11 * z1), rho]);
+        }
+    }
+    out
+}
+
+#[test]
+fn synthetic_mixture_is_recovered_including_one_across_zero() {
+    // (mean (theta, rho), covariance (tt, tr, rr), weight)
+    let truth = [
+        ([0.05, 1.2], [0.04, 0.004, 0.01], 0.4), // straddles 0 / 2pi
+        ([PI / 2.0 + 0.3, 0.8], [0.02, -0.003, 0.015], 0.35),
+        ([3.8, 1.5], [0.03, 0.0, 0.04], 0.25),
+    ];
+    let x = draw(&truth, 6000, 11);
+    // About a third of the first component's samples lie below 2pi.
+    assert!(x.iter().filter(|s| s[0] > 5.5).count() > 500);
+    let fit = fit_mixture(&x, &FitParams::default());
+    println!("{fit:?}");
+    let mut used = vec![false; fit.len()];
+    for (mu, c, w) in truth {
+        let (j, f) = fit
+            .iter()
+            .enumerate()
+            .min_by(|a, b| {
+                let d = |f: &cliff::map::Component| {
+                    wrap_pi(f.theta - mu[0]).abs() + (f.rho - mu[1]).abs()
+                };
+                d(a.1).total_cmp(&d(b.1))
+            })
+            .unwrap();
+        used[j] = true;
+        assert!(
+            wrap_pi(f.theta - mu[0]).abs() < 0.02,
+            "mean direction {f:?} vs {mu:?}"
+        );
+        assert!((f.rho - mu[1]).abs() < 0.02, "mean speed {f:?} vs {mu:?}");
+        assert!(
+            (f.cov[0] / c[0] - 1.0).abs() < 0.15,
+            "var theta {f:?} vs {c:?}"
+        );
+        assert!(
+            (f.cov[3] / c[2] - 1.0).abs() < 0.15,
+            "var rho {f:?} vs {c:?}"
+        );
+        assert!((f.cov[1] - c[1]).abs() < 0.003, "cov {f:?} vs {c:?}");
+        assert!((f.weight - w).abs() < 0.03, "weight {f:?} vs {w}");
+    }
+    // Anything else the fit found carries little weight.
+    let extra: f64 = fit
+        .iter()
+        .zip(&used)
+        .filter(|(_, u)| !**u)
+        .map(|(f, _)| f.weight)
+        .sum();
+    assert!(extra < 0.03, "extra weight {extra}");
+}
+
+#[test]
+fn build_is_reproducible_and_independent_of_threads() {
+    let tracks = read_many(&[data("thor1/exp-1-run-2.csv")], Format::Thor).unwrap();
+    let obs = observations_from_tracks(&tracks);
+    let params = BuildParams {
+        grid: 0.5,
+        radius: 0.5,
+        ..BuildParams::default()
+    };
+    let run = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        pool.install(|| cliff::map::write_csv_string(&build_map(&obs, &params).unwrap().map))
+    };
+    let a = run(1);
+    assert_eq!(a, run(2));
+    assert_eq!(a, run(2));
+    assert!(a.lines().count() > 100, "{}", a.lines().count());
+}
+
+#[test]
+fn binned_mean_shift_matches_exact_on_small_nodes() {
+    // A 12 m x 8 m part of the hall in hour 13: nodes of tens to a few hundred samples,
+    // where the exact O(n^2) mean shift is affordable.
+    let inside = |o: &Observation| {
+        (0.0..12.0).contains(&o.position.x) && (-8.0..0.0).contains(&o.position.y)
+    };
+    let obs: Vec<Observation> = atc_obs(&atc_files("train", &[13]))
+        .into_iter()
+        .filter(inside)
+        .collect();
+    let test: Vec<Observation> = atc_obs(&atc_files("dev", &[13, 15]))
+        .into_iter()
+        .filter(inside)
+        .collect();
+    assert!(
+        obs.len() > 1000 && test.len() > 100,
+        "{} {}",
+        obs.len(),
+        test.len()
+    );
+    let exact = BuildParams {
+        fit: FitParams {
+            mean_shift: MeanShift::Exact,
+            ..FitParams::default()
+        },
+        ..BuildParams::default()
+    };
+    let a = build_map(&obs, &exact).unwrap();
+    let b = build_map(&obs, &BuildParams::default()).unwrap();
+    let (sa, sb) = (atc_score(&a.map, &test), atc_score(&b.map, &test));
+    show("exact mean shift", &sa);
+    show("binned mean shift", &sb);
+    println!(
+        "components: exact {}, binned {}",
+        a.summary.components, b.summary.components
+    );
+    assert_eq!(a.summary.locations, b.summary.locations);
+    assert!((sa.mean_log_likelihood - sb.mean_log_likelihood).abs() < 0.02);
+    assert!((sa.median_log_likelihood - sb.median_log_likelihood).abs() < 0.02);
+    let (ca, cb) = (a.summary.components as f64, b.summary.components as f64);
+    assert!((ca - cb).abs() <= 0.05 * ca, "{ca} vs {cb}");
+}
+
+#[test]
+fn hour13_map_scores_at_least_as_well_as_the_matlab_reference() {
+    let obs = atc_obs(&atc_files("train", &[13]));
+    let built = build_map(&obs, &BuildParams::default()).unwrap();
+    let test = atc_obs(&atc_files("dev", &[13]));
+    let ours = atc_score(&built.map, &test);
+    let matlab = atc_score(
+        &CliffMap::load(data("atc/reference-maps/matlab-hour13.csv")).unwrap(),
+        &test,
+    );
+    show("ours, hour 13", &ours);
+    show("MATLAB, hour 13", &matlab);
+    // The scorer reproduces the published figures of the reference map.
+    assert_eq!((matlab.observations, matlab.unmatched), (7973, 47));
+    assert!((matlab.mean_log_likelihood + 1.78).abs() < 0.005);
+    assert!((matlab.median_log_likelihood + 1.23).abs() < 0.005);
+    assert!(ours.mean_log_likelihood >= matlab.mean_log_likelihood);
+    assert!(ours.median_log_likelihood >= matlab.median_log_likelihood);
+    assert!(ours.unmatched <= matlab.unmatched);
+    // Same nodes as the original: whole-metre positions, the same busiest count.
+    assert_eq!(built.summary.max_count, 3598);
+    assert!(
+        built
+            .map
+            .locations()
+            .iter()
+            .all(|l| l.position.x.fract() == 0.0 && l.position.y.fract() == 0.0)
+    );
+}
+
+#[test]
+fn atc_train_map_scores_on_dev_at_least_as_well_as_the_shipped_map() {
+    let built = train_map();
+    let dev = dev_obs();
+    let ours = atc_score(&built.map, dev);
+    let shipped = atc_score(
+        &CliffMap::load(data("atc/cliffmap-20121024.csv")).unwrap(),
+        dev,
+    );
+    show("built from atc/train", &ours);
+    show("shipped (whole day)", &shipped);
+    assert_eq!(ours.observations, shipped.observations);
+    assert!(ours.mean_log_likelihood >= shipped.mean_log_likelihood);
+    assert!(ours.median_log_likelihood >= shipped.median_log_likelihood);
+    assert!(
+        ours.unmatched * 1000 <= ours.observations,
+        "{}",
+        ours.unmatched
+    );
+}
+
+#[test]
+fn hourly_online_updates_end_close_to_the_batch_map() {
+    let dev = dev_obs();
+    let batch = atc_score(&train_map().map, dev);
+    let mut hours = TRAIN_HOURS.iter();
+    let first = atc_obs(&atc_files("train", &[*hours.next().unwrap()]));
+    let mut online =
+        OnlineMap::build(&first, &BuildParams::default(), UpdateParams::default()).unwrap();
+    for &h in hours {
+        let r = online.update(&atc_obs(&atc_files("train", &[h]))).unwrap();
+        println!("hour {h}: {r:?}");
+    }
+    let map = online.to_map().unwrap();
+    let s = atc_score(&map, dev);
+    show("batch, atc/train", &batch);
+    show("online, hour by hour", &s);
+    // Nodes do not grow without bound.
+    let max_c = map
+        .locations()
+        .iter()
+        .map(|l| l.components.len())
+        .max()
+        .unwrap();
+    assert!(max_c <= UpdateParams::default().max_components);
+    let gap = (s.mean_log_likelihood - batch.mean_log_likelihood) / batch.mean_log_likelihood.abs();
+    println!("online vs batch: {:.2} %", 100.0 * gap);
+    assert!(
+        gap >= -0.02,
+        "online mean {} vs batch {}",
+        s.mean_log_likelihood,
+        batch.mean_log_likelihood
+    );
+}
+
+#[test]
+fn predictions_with_the_built_map_are_as_good_as_with_the_shipped_map() {
+    use cliff::eval::protocol::{Protocol, Settings};
+    use cliff::eval::{EvalConfig, SummaryRow, evaluate};
+    use cliff::predict::{Method, Params};
+    let tracks = read_many(&atc_files("dev", &DEV_HOURS), Format::Atc).unwrap();
+    let cfg = EvalConfig {
+        settings: Settings {
+            protocol: Protocol::Seconds,
+            obs: 3.2,
+            dt: 1.0,
+            horizon: 50.0,
+            ..Settings::default()
+        },
+        params: Params {
+            k: 20,
+            beta: 1.0,
+            radius: 1.0,
+            ..Params::default()
+        },
+        seeds: 20,
+        methods: vec![Method::Cliff],
+    };
+    let at_50 = |map: &CliffMap| -> SummaryRow {
+        let report = evaluate(map, &tracks, &cfg, &|| {}).unwrap();
+        report
+            .summary
+            .into_iter()
+            .find(|r| r.method == Method::Cliff && (r.horizon - 50.0).abs() < 1e-9)
+            .expect("a row at 50 s")
+    };
+    let ours = at_50(&train_map().map);
+    let shipped = at_50(&CliffMap::load(data("atc/cliffmap-20121024.csv")).unwrap());
+    for (name, r) in [
+        ("built from atc/train", &ours),
+        ("shipped (whole day)", &shipped),
+    ] {
+        println!(
+            "{name:<22} at 50 s: ADE {:.3} (sd {:.3})  FDE {:.3} (sd {:.3})  people {:.2}",
+            r.ade, r.ade_sd, r.fde, r.fde_sd, r.people
+        );
+    }
+    assert!(ours.people > 30.0, "{}", ours.people);
+    assert!(
+        ours.ade <= 1.05 * shipped.ade,
+        "ADE {} vs {}",
+        ours.ade,
+        shipped.ade
+    );
+    assert!(
+        ours.fde <= 1.05 * shipped.fde,
+        "FDE {} vs {}",
+        ours.fde,
+        shipped.fde
+    );
+}

@@ -1,0 +1,246 @@
+//! `cliff map build | score | update` as a user runs them, on real THÖR and ATC files.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn data(p: &str) -> String {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../shared/data")
+        .join(p)
+        .display()
+        .to_string()
+}
+
+fn cliff(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_cliff"))
+        .args(args)
+        .output()
+        .expect("run cliff")
+}
+
+fn tmp() -> tempfile::TempDir {
+    tempfile::tempdir().unwrap()
+}
+
+fn p(dir: &tempfile::TempDir, name: &str) -> String {
+    let f: PathBuf = dir.path().join(name);
+    f.display().to_string()
+}
+
+fn ok(o: &Output) -> String {
+    assert!(
+        o.status.success(),
+        "stdout: {}\nstderr: {}",
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    );
+    String::from_utf8_lossy(&o.stdout).into_owned()
+}
+
+fn err(o: &Output) -> String {
+    assert!(
+        !o.status.success(),
+        "should have failed: {}",
+        String::from_utf8_lossy(&o.stdout)
+    );
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+fn json(s: &str) -> serde_json::Value {
+    serde_json::from_str(s.trim()).unwrap_or_else(|e| panic!("not one JSON object ({e}): {s}"))
+}
+
+#[test]
+fn build_then_score_json_on_thor() {
+    let dir = tmp();
+    let map = p(&dir, "thor1.cliff");
+    let thor = data("thor1/exp-1-run-2.csv");
+    let out = ok(&cliff(&[
+        "map", "build", "--tracks", &thor, "--format", "thor", "--grid", "0.5", "--radius", "0.5",
+        "--out", &map, "--quiet",
+    ]));
+    assert!(out.contains("locations"), "{out}");
+    // The snapshot loads, sits on the 0.5 m grid and scores its own data well.
+    let info = ok(&cliff(&["map", "info", &map]));
+    assert!(info.contains("grid step           0.5 m"), "{info}");
+    let s = json(&ok(&cliff(&[
+        "map", "score", "--map", &map, "--tracks", &thor, "--format", "thor", "--radius", "0.5",
+        "--json",
+    ])));
+    let n = s["observations"].as_u64().unwrap();
+    let unmatched = s["unmatched"].as_u64().unwrap();
+    let mean = s["mean_log_likelihood"].as_f64().unwrap();
+    assert!(n > 2000, "{s}");
+    // Only where a node had fewer than 3 samples.
+    assert!(unmatched <= 5, "{s}");
+    assert!(mean > -2.0 && mean < 3.0, "{s}");
+    assert!(s["median_log_likelihood"].as_f64().is_some() && s["share_below"].as_f64().is_some());
+    // The shipped THÖR1 map was built from another round: it explains this one worse
+    // than a map built on it.
+    let shipped = json(&ok(&cliff(&[
+        "map",
+        "score",
+        "--map",
+        &data("thor1/cliffmap.csv"),
+        "--tracks",
+        &thor,
+        "--format",
+        "thor",
+        "--radius",
+        "0.5",
+        "--json",
+    ])));
+    assert!(
+        shipped["mean_log_likelihood"].as_f64().unwrap() < mean,
+        "{shipped} vs {s}"
+    );
+}
+
+#[test]
+fn build_is_byte_identical_across_runs_and_thread_counts() {
+    let dir = tmp();
+    let (a, b) = (p(&dir, "a.csv"), p(&dir, "b.csv"));
+    let hour = data("atc/train/atc-1024-9_train.csv");
+    for (out, threads) in [(&a, "1"), (&b, "2")] {
+        ok(&cliff(&[
+            "map",
+            "build",
+            "--tracks",
+            &hour,
+            "--out",
+            out,
+            "--threads",
+            threads,
+            "--quiet",
+        ]));
+    }
+    let (x, y) = (std::fs::read(&a).unwrap(), std::fs::read(&b).unwrap());
+    assert!(x.len() > 10_000);
+    assert!(x == y, "maps differ between runs");
+}
+
+#[test]
+fn update_chains_and_improves_on_new_data() {
+    let dir = tmp();
+    let (m9, m10) = (p(&dir, "h9.csv"), p(&dir, "h10.csv"));
+    let h9 = data("atc/train/atc-1024-9_train.csv");
+    let h10 = data("atc/train/atc-1024-10_train.csv");
+    let out = ok(&cliff(&[
+        "map", "build", "--tracks", &h9, "--out", &m9, "--quiet",
+    ]));
+    let scale = out
+        .lines()
+        .find(|l| l.starts_with("busiest node"))
+        .and_then(|l| l.split_whitespace().nth(2))
+        .unwrap()
+        .to_string();
+    let out = ok(&cliff(&[
+        "map",
+        "update",
+        "--map",
+        &m9,
+        "--count-scale",
+        &scale,
+        "--tracks",
+        &h10,
+        "--out",
+        &m10,
+    ]));
+    assert!(out.contains("pass --count-scale"), "{out}");
+    let dev = data("atc/dev/atc-1024-11_test.csv");
+    let score = |m: &str| {
+        json(&ok(&cliff(&[
+            "map", "score", "--map", m, "--tracks", &dev, "--json",
+        ])))["mean_log_likelihood"]
+            .as_f64()
+            .unwrap()
+    };
+    let (before, after) = (score(&m9), score(&m10));
+    assert!(
+        after > before,
+        "hour 9 map {before}, updated with hour 10 {after}"
+    );
+}
+
+#[test]
+fn bad_input_gets_clear_errors() {
+    let dir = tmp();
+    let out = p(&dir, "m.csv");
+    let hour = data("atc/train/atc-1024-9_train.csv");
+    // Bad option values.
+    let e = err(&cliff(&[
+        "map", "build", "--tracks", &hour, "--grid", "0", "--out", &out,
+    ]));
+    assert!(e.contains("grid step 0 m must be positive"), "{e}");
+    let e = err(&cliff(&[
+        "map",
+        "build",
+        "--tracks",
+        &hour,
+        "--radius=-1",
+        "--out",
+        &out,
+    ]));
+    assert!(e.contains("radius -1 m must be positive"), "{e}");
+    let e = err(&cliff(&[
+        "map", "build", "--tracks", &hour, "--format", "xyz", "--out", &out,
+    ]));
+    assert!(e.contains("unknown track format 'xyz'"), "{e}");
+    let e = err(&cliff(&[
+        "map",
+        "build",
+        "--tracks",
+        &hour,
+        "--out",
+        &p(&dir, "m.txt"),
+        "--quiet",
+    ]));
+    assert!(e.contains("m.txt: unknown map format"), "{e}");
+    // A broken trajectory file: file, line and column.
+    let bad = p(&dir, "bad.csv");
+    std::fs::write(&bad, "1.0,1,0.0,0.0,1.0,0.0\n2.0,1,0.5,x,1.0,0.0\n").unwrap();
+    let e = err(&cliff(&["map", "build", "--tracks", &bad, "--out", &out]));
+    assert!(
+        e.contains("bad.csv:2: column 4: 'x' is not a number"),
+        "{e}"
+    );
+    // Too little data for any mixture.
+    let few = p(&dir, "few.csv");
+    std::fs::write(&few, "1.0,1,0.0,0.0,1.0,0.0\n2.0,1,5.0,0.0,1.0,0.0\n").unwrap();
+    let e = err(&cliff(&["map", "build", "--tracks", &few, "--out", &out]));
+    assert!(e.contains("no location got a mixture"), "{e}");
+    // Missing files.
+    let e = err(&cliff(&[
+        "map",
+        "score",
+        "--map",
+        &p(&dir, "none.csv"),
+        "--tracks",
+        &hour,
+    ]));
+    assert!(e.contains("none.csv"), "{e}");
+    let e = err(&cliff(&[
+        "map",
+        "score",
+        "--map",
+        &data("atc/cliffmap-20121024.csv"),
+        "--tracks",
+        &hour,
+        "--radius",
+        "0",
+    ]));
+    assert!(e.contains("radius 0 m must be positive"), "{e}");
+    let e = err(&cliff(&[
+        "map",
+        "update",
+        "--map",
+        &data("atc/cliffmap-20121024.csv"),
+        "--tracks",
+        &hour,
+        "--decay",
+        "0",
+        "--out",
+        &out,
+    ]));
+    assert!(e.contains("decay 0 must be in (0, 1]"), "{e}");
+}
