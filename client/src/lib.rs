@@ -319,6 +319,9 @@ impl fmt::Debug for Client {
 /// connection looks alive until a node cleans up its resources).
 const LIVENESS_INTERVAL: Duration = Duration::from_millis(20);
 
+/// Pause instructions between two polls of a busy-waiting client.
+const SPIN_PAUSES: usize = 4;
+
 impl Client {
     /// Connect to the daemon serving `service` with default [`ClientOptions`].
     pub fn connect(service: &str) -> Result<Client, Error> {
@@ -534,7 +537,11 @@ impl Client {
             // between the checks below only the response is polled (a tighter loop)
             polls = polls.wrapping_add(1);
             if polls % 16 != 1 {
-                std::hint::spin_loop();
+                // a few pause instructions per poll leave the execution units to a
+                // daemon on the sibling hyperthread
+                for _ in 0..SPIN_PAUSES {
+                    std::hint::spin_loop();
+                }
                 continue;
             }
             if !pending.is_connected() {

@@ -34,3 +34,50 @@ fn c_header_is_up_to_date() {
         assert!(text.contains(f), "{f} missing from the header");
     }
 }
+
+#[test]
+fn c_header_compiles_as_c_and_as_cpp() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let include = dir.join("include");
+    let example = dir.join("examples/c/cliff_predict.c");
+    let runs: [(&str, &[&str]); 2] = [
+        (
+            "gcc",
+            &[
+                "-std=c99",
+                "-Wall",
+                "-Wextra",
+                "-Werror",
+                "-fsyntax-only",
+                "-x",
+                "c",
+            ],
+        ),
+        (
+            "g++",
+            &[
+                "-std=c++17",
+                "-Wall",
+                "-Wextra",
+                "-Werror",
+                "-fsyntax-only",
+                "-x",
+                "c++",
+            ],
+        ),
+    ];
+    for (compiler, flags) in runs {
+        let out = std::process::Command::new(compiler)
+            .args(flags)
+            .arg("-I")
+            .arg(&include)
+            .arg(&example)
+            .output()
+            .unwrap_or_else(|e| panic!("run {compiler}: {e}"));
+        assert!(
+            out.status.success(),
+            "{compiler} rejects the header or the example:\n{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+    }
+}

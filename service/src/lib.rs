@@ -516,7 +516,7 @@ impl Daemon {
         let slots = &mut self.slots[..n];
         let maps = &self.maps;
         match &self.pool {
-            Some(pool) if slots.iter().filter(|s| s.response.is_some()).count() > 1 => {
+            Some(pool) if worth_parallel(slots) => {
                 let mut jobs = recycle(std::mem::take(&mut self.jobs));
                 for s in slots.iter_mut() {
                     if let Some(resp) = s.response.as_mut() {
@@ -782,6 +782,22 @@ impl Job<'_> {
             }
         };
     }
+}
+
+/// Positions a batch must predict before it is split over the workers: waking a
+/// sleeping worker costs tens of microseconds, about a thousand positions' work.
+const PARALLEL_MIN_POINTS: usize = 4000;
+
+/// True when at least two requests are to be predicted and together they are large
+/// enough to pay for waking the workers.
+fn worth_parallel(slots: &[Slot]) -> bool {
+    let mut jobs = 0;
+    let mut points = 0;
+    for s in slots.iter().filter(|s| s.response.is_some()) {
+        jobs += 1;
+        points += s.scratch.states().len() * s.params.k * s.params.steps();
+    }
+    jobs > 1 && points >= PARALLEL_MIN_POINTS
 }
 
 /// Reuse a vector's memory for elements of another lifetime (it is empty in between),
