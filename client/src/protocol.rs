@@ -809,6 +809,22 @@ fn agent_state(a: u32, run: &[Observation], bufs: Bufs<'_>) -> Result<State, Rej
 /// The in-process reference: decodes a request exactly as the daemon does and predicts
 /// into a reusable [`TrajectoryBatch`]. The same map, request and seed give the same
 /// bytes as the daemon's response.
+///
+/// ```
+/// use cliff::map::CliffMap;
+/// use cliff::predict::Params;
+/// use cliff_client::protocol::LocalPredictor;
+/// use cliff_client::{Observation, Request};
+///
+/// let map = CliffMap::demo();
+/// let mut request = Request::new("demo", &Params { k: 5, horizon: 4.0, ..Params::default() }).unwrap();
+/// // one person walking east along the demo hall's corridor, observed at 2.5 Hz
+/// request.add_agent((0..4).map(|i| Observation::position(0.4 * i as f64, -10.0 + 0.5 * i as f64, 0.5)));
+/// let mut local = LocalPredictor::default();
+/// let batch = local.predict(&map, request.header(), request.rows()).unwrap();
+/// assert_eq!(batch.shape(), (1, 5, 10)); // 1 agent, 5 samples, 4 s at 0.4 s
+/// assert!(batch.sample(0, 0)[0][0] > -8.5); // moving east from x = -8.5
+/// ```
 #[derive(Debug, Clone)]
 pub struct LocalPredictor {
     limits: Limits,
