@@ -1,22 +1,10 @@
 //! The `cliff` command line on real data: the contracts other tools rely on.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::path::PathBuf;
+use std::process::Output;
 
-fn data(p: &str) -> String {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../shared/data")
-        .join(p)
-        .display()
-        .to_string()
-}
-
-fn cliff(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_cliff"))
-        .args(args)
-        .output()
-        .expect("run cliff")
-}
+mod common;
+use common::{cliff, data};
 
 fn tmp(name: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!("cliff-cli-{}-{name}", std::process::id()));

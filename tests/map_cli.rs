@@ -1,22 +1,10 @@
 //! `cliff map build | score | update` as a user runs them, on real THÖR and ATC files.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::path::PathBuf;
+use std::process::Output;
 
-fn data(p: &str) -> String {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../shared/data")
-        .join(p)
-        .display()
-        .to_string()
-}
-
-fn cliff(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_cliff"))
-        .args(args)
-        .output()
-        .expect("run cliff")
-}
+mod common;
+use common::{cliff, data};
 
 fn tmp() -> tempfile::TempDir {
     tempfile::tempdir().unwrap()

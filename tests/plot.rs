@@ -3,7 +3,6 @@
 //! maps known world coordinates to (through the library's public `Frame`).
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
 
 use cliff::eval::dataset::{Format, read_tracks};
 use cliff::eval::person_seed;
@@ -18,20 +17,8 @@ use cliff::scene::{SceneOptions, demo_tracks, tracks_csv};
 use glam::DVec2;
 use image::RgbImage;
 
-fn data(p: &str) -> String {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../shared/data")
-        .join(p)
-        .display()
-        .to_string()
-}
-
-fn cliff(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_cliff"))
-        .args(args)
-        .output()
-        .expect("run cliff")
-}
+mod common;
+use common::{cliff, data};
 
 fn ok(args: &[&str]) -> String {
     let o = cliff(args);
