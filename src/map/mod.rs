@@ -520,9 +520,11 @@ pub struct DirectionSampler<'a> {
     table: &'a [DirectionComponent],
 }
 
-impl Distribution<f64> for DirectionSampler<'_> {
+impl DirectionSampler<'_> {
+    /// A draw as [`sample`](Distribution::sample) gives it, before wrapping to
+    /// `[0, 2pi)` (for callers that only take its sine and cosine).
     #[inline(always)]
-    fn sample<R: Rng + ?Sized>(&self, rng: &mut R) -> f64 {
+    pub fn sample_unwrapped<R: Rng + ?Sized>(&self, rng: &mut R) -> f64 {
         let u: f64 = rng.random();
         // Branch-free choice: the number of cumulative weights at or below u.
         let i = self
@@ -532,7 +534,14 @@ impl Distribution<f64> for DirectionSampler<'_> {
             .sum::<usize>();
         let c = &self.table[i.min(self.table.len() - 1)];
         let z: f64 = StandardNormal.sample(rng);
-        wrap_2pi(c.mu + c.sigma * z)
+        c.mu + c.sigma * z
+    }
+}
+
+impl Distribution<f64> for DirectionSampler<'_> {
+    #[inline(always)]
+    fn sample<R: Rng + ?Sized>(&self, rng: &mut R) -> f64 {
+        wrap_2pi(self.sample_unwrapped(rng))
     }
 }
 

@@ -32,7 +32,6 @@ use std::str::FromStr;
 
 use glam::DVec2;
 use rand::SeedableRng;
-use rand::distr::Distribution;
 use rand_xoshiro::Xoshiro256PlusPlus;
 
 use crate::map::{CliffMap, Lookup, wrap_2pi};
@@ -373,7 +372,7 @@ fn roll_cliff_lanes(
         // Phase 1: draw a direction at each active lane's location (in lane order).
         for l in 0..LANES {
             if active[l] {
-                ts[l] = map.direction_at(loc[l]).sample(rng);
+                ts[l] = map.direction_at(loc[l]).sample_unwrapped(rng);
             }
         }
         // Phase 2: turn and move every lane (straight-line arithmetic, lanes interleaved).
@@ -400,7 +399,7 @@ fn roll_cliff_lanes(
             }
             HeadingRule::Paper => {
                 for l in 0..LANES {
-                    let mut signed = ts[l] - theta[l];
+                    let mut signed = wrap_2pi(ts[l]) - theta[l];
                     if signed > PI {
                         signed -= 2.0 * PI;
                     } else if signed < -PI {
