@@ -16,9 +16,9 @@ use cliff::plot::{
 use cliff::predict::{Method, TrajectoryBatch};
 use cliff::scene::{SceneOptions, demo_tracks, tracks_csv};
 
-use crate::eval_cmd::{PredictionArgs, load_tracks};
+use crate::eval_cmd::{PredictionArgs, load_tracks, predict_case};
 use crate::map_cmd::load_map;
-use crate::plot_cmd::{FloorplanArgs, Spread, predict_case, run_rows};
+use crate::plot_cmd::{FloorplanArgs, Spread, run_rows};
 
 /// Arguments of `cliff demo`.
 #[derive(Args, Debug)]

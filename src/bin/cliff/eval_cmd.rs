@@ -7,8 +7,9 @@ use std::time::{Duration, Instant};
 use anyhow::{Context, Result, bail};
 use clap::Args;
 use cliff::eval::dataset::{Format, Track, read_many};
-use cliff::eval::protocol::{Protocol, Settings, prepare};
+use cliff::eval::protocol::{Case, Protocol, Settings, prepare};
 use cliff::eval::{EvalConfig, evaluate, person_seed, summary_table, write_reports};
+use cliff::map::CliffMap;
 use cliff::predict::{HeadingRule, Method, Params, TrajectoryBatch, predict};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 
@@ -218,6 +219,26 @@ pub fn run_eval(a: EvalArgs) -> Result<()> {
     Ok(())
 }
 
+/// Predict one prepared person: its own horizon, and the seed mixed with its id as in
+/// `cliff eval` (so `cliff predict`, `cliff plot predict` and the demo draw the same
+/// samples for the same seed).
+pub(crate) fn predict_case(
+    map: &CliffMap,
+    case: &Case,
+    prediction: &PredictionArgs,
+    method: Method,
+    seed: u64,
+    batch: &mut TrajectoryBatch,
+) -> Result<Params> {
+    let params = Params {
+        horizon: case.steps as f64 * prediction.dt,
+        ..prediction.params(method, person_seed(seed, case.id))
+    };
+    predict(map, std::slice::from_ref(&case.start), &params, batch)
+        .with_context(|| format!("predicting person {}", case.id))?;
+    Ok(params)
+}
+
 /// Run `cliff predict`.
 pub fn run_predict(a: PredictArgs) -> Result<()> {
     let map = load_map(a.map.as_ref())?;
@@ -233,12 +254,8 @@ pub fn run_predict(a: PredictArgs) -> Result<()> {
             a.person, settings.protocol
         )
     })?;
-    let params = Params {
-        horizon: case.steps as f64 * a.prediction.dt,
-        ..a.prediction.params(a.method, person_seed(a.seed, case.id))
-    };
     let mut batch = TrajectoryBatch::new();
-    predict(&map, std::slice::from_ref(&case.start), &params, &mut batch)?;
+    let params = predict_case(&map, &case, &a.prediction, a.method, a.seed, &mut batch)?;
     let mut out = String::from("sample,step,t,x,y\n");
     use std::fmt::Write as _;
     for s in 0..params.k {

@@ -5,17 +5,15 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, Result, bail};
 use clap::{Args, Subcommand};
 use cliff::eval::dataset::{Format, Track};
-use cliff::eval::person_seed;
-use cliff::eval::protocol::{Case, prepare};
-use cliff::map::CliffMap;
+use cliff::eval::protocol::prepare;
 use cliff::plot::{
     CurveRun, CurvesStyle, Extent, Floorplan, MapStyle, PersonPrediction, PredictStyle, SummaryRow,
     plot_curves, plot_map, plot_predictions, read_per_person_spread, read_summary,
 };
-use cliff::predict::{Method, Params, TrajectoryBatch, predict};
+use cliff::predict::{Method, TrajectoryBatch};
 use cliff::scene::{SceneOptions, demo_tracks};
 
-use crate::eval_cmd::{PredictionArgs, load_tracks};
+use crate::eval_cmd::{PredictionArgs, load_tracks, predict_case};
 use crate::map_cmd::load_map;
 
 /// Plot subcommands.
@@ -270,24 +268,6 @@ pub(crate) fn tracks_or_demo(
             bail!("--tracks is needed with --map (the demo walkers only walk the demo hall)")
         }
     }
-}
-
-/// Predict one prepared person as `cliff predict` does (same seed rule).
-pub(crate) fn predict_case(
-    map: &CliffMap,
-    case: &Case,
-    prediction: &PredictionArgs,
-    method: Method,
-    seed: u64,
-    batch: &mut TrajectoryBatch,
-) -> Result<Params> {
-    let params = Params {
-        horizon: case.steps as f64 * prediction.dt,
-        ..prediction.params(method, person_seed(seed, case.id))
-    };
-    predict(map, std::slice::from_ref(&case.start), &params, batch)
-        .with_context(|| format!("predicting person {}", case.id))?;
-    Ok(params)
 }
 
 fn run_predict(a: PredictPlotArgs) -> Result<()> {
