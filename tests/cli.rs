@@ -87,25 +87,28 @@ fn eval_contract_writes_summary_and_per_person() {
 #[test]
 fn predict_writes_one_persons_samples() {
     let out = tmp("predict").join("p.csv");
-    let o = cliff(&[
-        "predict",
-        "--map",
-        &data("thor1/cliffmap.csv"),
-        "--tracks",
-        &data("thor1/exp-1-run-2.csv"),
-        "--format",
-        "thor",
-        "--protocol",
-        "reference",
-        "--person",
-        "12007",
-        "--k",
-        "5",
-        "--seed",
-        "7",
-        "--out",
-        out.to_str().unwrap(),
-    ]);
+    let run = |out: &std::path::Path| {
+        cliff(&[
+            "predict",
+            "--map",
+            &data("thor1/cliffmap.csv"),
+            "--tracks",
+            &data("thor1/exp-1-run-2.csv"),
+            "--format",
+            "thor",
+            "--protocol",
+            "reference",
+            "--person",
+            "12007",
+            "--k",
+            "5",
+            "--seed",
+            "7",
+            "--out",
+            out.to_str().unwrap(),
+        ])
+    };
+    let o = run(&out);
     let (stdout, stderr) = text(&o);
     assert!(o.status.success(), "{stderr}");
     assert!(
@@ -122,25 +125,7 @@ fn predict_writes_one_persons_samples() {
     assert!(!samples.is_empty() && samples.len() <= 5);
     // same seed, same file
     let out2 = out.with_file_name("p2.csv");
-    let o = cliff(&[
-        "predict",
-        "--map",
-        &data("thor1/cliffmap.csv"),
-        "--tracks",
-        &data("thor1/exp-1-run-2.csv"),
-        "--format",
-        "thor",
-        "--protocol",
-        "reference",
-        "--person",
-        "12007",
-        "--k",
-        "5",
-        "--seed",
-        "7",
-        "--out",
-        out2.to_str().unwrap(),
-    ]);
+    let o = run(&out2);
     assert!(o.status.success());
     assert_eq!(std::fs::read_to_string(&out2).unwrap(), csv);
 }
