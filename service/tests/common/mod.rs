@@ -13,6 +13,20 @@ use cliff::map::CliffMap;
 use cliff::predict::{Method, Params};
 use cliff_client::{Client, ClientOptions, Observation, Request, WaitMode};
 
+/// The lines a child prints on its (piped) standard output, as they come.
+fn stdout_lines(child: &mut Child) -> mpsc::Receiver<String> {
+    let stdout = child.stdout.take().expect("stdout");
+    let (tx, rx) = mpsc::channel();
+    std::thread::spawn(move || {
+        for line in BufReader::new(stdout).lines().map_while(Result::ok) {
+            if tx.send(line).is_err() {
+                break;
+            }
+        }
+    });
+    rx
+}
+
 pub const SERVICE: &str = "cliff/test";
 
 /// A fresh iceoryx2 prefix, unique per test and process; its files are removed on drop.
@@ -102,15 +116,7 @@ impl Daemon {
             .stderr(stderr)
             .spawn()
             .expect("spawn cliffd");
-        let stdout = child.stdout.take().expect("stdout");
-        let (tx, rx) = mpsc::channel();
-        std::thread::spawn(move || {
-            for line in BufReader::new(stdout).lines().map_while(Result::ok) {
-                if tx.send(line).is_err() {
-                    break;
-                }
-            }
-        });
+        let rx = stdout_lines(&mut child);
         let deadline = Instant::now() + Duration::from_secs(30);
         let mut d = Daemon {
             child,
@@ -252,15 +258,7 @@ impl ChildClient {
             .stderr(Stdio::inherit())
             .spawn()
             .expect("spawn child client");
-        let stdout = child.stdout.take().expect("stdout");
-        let (tx, rx) = mpsc::channel();
-        std::thread::spawn(move || {
-            for line in BufReader::new(stdout).lines().map_while(Result::ok) {
-                if tx.send(line).is_err() {
-                    break;
-                }
-            }
-        });
+        let rx = stdout_lines(&mut child);
         ChildClient { child, lines: rx }
     }
 
