@@ -186,6 +186,37 @@ struct DirectionComponent {
     sigma: f64,
 }
 
+/// Pad every location's sampling entries to the map's largest component count, when
+/// that at most doubles the table: the component choice in [`DirectionSampler`] then
+/// runs the same number of comparisons at every location, which the processor predicts
+/// (a count that changes from step to step costs a mispredicted branch). Padding
+/// entries have an infinite cumulative weight, so they are never chosen.
+fn pad_components(
+    comp_start: Vec<u32>,
+    table: Vec<DirectionComponent>,
+) -> (Vec<u32>, Vec<DirectionComponent>) {
+    let counts = comp_start.windows(2).map(|w| (w[1] - w[0]) as usize);
+    let widest = counts.clone().max().unwrap_or(0);
+    let locations = comp_start.len() - 1;
+    if widest <= 1 || locations.saturating_mul(widest) > 2 * table.len() {
+        return (comp_start, table);
+    }
+    let mut padded = Vec::with_capacity(locations * widest);
+    let mut starts = Vec::with_capacity(locations + 1);
+    for (w, n) in comp_start.windows(2).zip(counts) {
+        starts.push(padded.len() as u32);
+        let own = &table[w[0] as usize..w[1] as usize];
+        padded.extend_from_slice(own);
+        let filler = DirectionComponent {
+            cum_weight: f64::INFINITY,
+            ..own[n - 1]
+        };
+        padded.extend(std::iter::repeat_n(filler, widest - n));
+    }
+    starts.push(padded.len() as u32);
+    (starts, padded)
+}
+
 /// Most radii whose neighbour tables a map keeps; further radii use the grid scan.
 const MAX_CACHED_RADII: usize = 8;
 
@@ -342,6 +373,7 @@ impl CliffMap {
             }
         }
         comp_start.push(table.len() as u32);
+        let (comp_start, table) = pad_components(comp_start, table);
         Ok(Self {
             locations,
             grid,
@@ -415,7 +447,7 @@ impl CliffMap {
         }
         MapInfo {
             locations: self.locations.len(),
-            components: self.table.len(),
+            components: self.locations.iter().map(|l| l.components.len()).sum(),
             components_per_location: (min_c, max_c),
             grid_step: self.grid.step(),
             extent: (lo, hi),

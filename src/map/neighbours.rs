@@ -41,10 +41,14 @@ pub struct NeighbourTable {
     r2: f64,
     origin: DVec2,
     inv_sub: f64,
+    /// Half the sub-cells per cell along an axis (the sub-cell grid is offset by it).
+    half_sub: f64,
     /// log2 of the sub-cells per cell along an axis.
     shift: u32,
     nx: usize,
-    ny: usize,
+    /// Sub-cells along x and y, and the same as floats (for the range check).
+    snx: usize,
+    sub_dims: DVec2,
     offsets: Vec<u32>,
     candidates: Vec<Candidate>,
     /// Per sub-cell: a location index, [`NONE_NEAR`] or [`SCAN`].
@@ -148,9 +152,11 @@ impl NeighbourTable {
             r2,
             origin,
             inv_sub: sub_n as f64 / step,
+            half_sub: sub_n as f64 / 2.0,
             shift,
             nx,
-            ny,
+            snx,
+            sub_dims: DVec2::new(snx as f64, (ny * sub_n) as f64),
             offsets,
             candidates,
             sub,
@@ -164,21 +170,28 @@ impl NeighbourTable {
 
     /// The location with the largest observation ratio strictly within the radius of
     /// `p` (ties: the lowest index), as [`CliffMap::best_near`](super::CliffMap::best_near).
-    #[inline]
+    ///
+    /// The usual answer is one table load (inlined into the prediction loop); sub-cells
+    /// on a boundary between answers scan their cell's candidates out of line.
+    #[inline(always)]
     pub fn best_near(&self, p: DVec2) -> Option<usize> {
-        let half = (1u32 << self.shift) as f64 / 2.0;
-        let f = (p - self.origin) * self.inv_sub + DVec2::splat(half);
-        let (snx, sny) = (self.nx << self.shift, self.ny << self.shift);
-        if !(f.x >= 0.0 && f.y >= 0.0 && f.x < snx as f64 && f.y < sny as f64) {
+        let f = (p - self.origin) * self.inv_sub + DVec2::splat(self.half_sub);
+        if !(f.x >= 0.0 && f.y >= 0.0 && f.x < self.sub_dims.x && f.y < self.sub_dims.y) {
             // Outside the map and its margin (or NaN): nothing can be near.
             return None;
         }
-        let (sx, sy) = (f.x as usize, f.y as usize);
-        match self.sub[sy * snx + sx] {
-            NONE_NEAR => return None,
-            SCAN => {}
-            i => return Some(i as usize),
+        // In range (checked above), so the truncating conversions are exact floors.
+        let (sx, sy) = (f.x as u32 as usize, f.y as u32 as usize);
+        match self.sub[sy * self.snx + sx] {
+            NONE_NEAR => None,
+            SCAN => self.scan(p, sx, sy),
+            i => Some(i as usize),
         }
+    }
+
+    /// The first candidate of sub-cell `(sx, sy)`'s cell within the radius of `p`.
+    #[inline(never)]
+    fn scan(&self, p: DVec2, sx: usize, sy: usize) -> Option<usize> {
         let cell = (sy >> self.shift) * self.nx + (sx >> self.shift);
         let (a, b) = (self.offsets[cell] as usize, self.offsets[cell + 1] as usize);
         self.candidates[a..b]
