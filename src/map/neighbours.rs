@@ -15,14 +15,20 @@ use glam::DVec2;
 
 use super::GridIndex;
 
-/// Largest sub-cell table (entries of 4 bytes) one radius gets: 16 MiB.
-pub const MAX_SUB_CELLS: usize = 4 << 20;
+/// Largest sub-cell table (entries of 8 bytes) one radius gets: 16 MiB.
+pub const MAX_SUB_CELLS: usize = 2 << 20;
 /// Sub-cells per cell along each axis, as powers of two, finest first.
 const SUB_SHIFTS: [u32; 3] = [4, 3, 2];
 /// Sub-cell code: no location is near any point of the sub-cell.
 const NONE_NEAR: u32 = u32::MAX;
 /// Sub-cell code: the answer varies within the sub-cell; scan the cell's candidates.
 const SCAN: u32 = u32::MAX - 1;
+
+#[derive(Debug, Clone, Copy)]
+struct SubCell {
+    test: u32,
+    otherwise: u32,
+}
 /// Safety margin (m) for deciding a sub-cell's answer, larger than any rounding.
 const MARGIN: f64 = 1e-9;
 /// Largest number of candidate entries built.
@@ -51,8 +57,8 @@ pub struct NeighbourTable {
     sub_dims: DVec2,
     offsets: Vec<u32>,
     candidates: Vec<Candidate>,
-    /// Per sub-cell: a location index, [`NONE_NEAR`] or [`SCAN`].
-    sub: Vec<u32>,
+    points: Vec<DVec2>,
+    sub: Vec<SubCell>,
 }
 
 impl NeighbourTable {
@@ -117,7 +123,8 @@ impl NeighbourTable {
         // Resolve the sub-cells.
         let h = step / sub_n as f64;
         let snx = nx * sub_n;
-        let mut sub = vec![SCAN; snx * ny * sub_n];
+        let sentinel = u32::try_from(positions.len()).ok().filter(|&s| s < SCAN)?;
+        let mut sub = Vec::with_capacity(snx * ny * sub_n);
         let (lo_r2, hi_r2) = (
             (radius - MARGIN).max(0.0).powi(2),
             (radius + MARGIN).powi(2),
@@ -139,12 +146,18 @@ impl NeighbourTable {
                         .length_squared()
                 };
                 let max_d2 = |q: DVec2| ((q - centre).abs() + half).length_squared();
-                // The first candidate (by ratio) that can be near some point of the sub-cell.
-                sub[sy * snx + sx] = match list.iter().find(|c| min_d2(c.position) < hi_r2) {
-                    None => NONE_NEAR,
-                    Some(c) if max_d2(c.position) < lo_r2 => c.index,
-                    Some(_) => SCAN,
+                let mut reachable = list.iter().filter(|c| min_d2(c.position) < hi_r2);
+                let certain = |c: &Candidate| max_d2(c.position) < lo_r2;
+                let (test, otherwise) = match reachable.next() {
+                    None => (sentinel, NONE_NEAR),
+                    Some(c) if certain(c) => (sentinel, c.index),
+                    Some(c) => match reachable.next() {
+                        None => (c.index, NONE_NEAR),
+                        Some(d) if certain(d) => (c.index, d.index),
+                        Some(_) => (sentinel, SCAN),
+                    },
                 };
+                sub.push(SubCell { test, otherwise });
             }
         }
         Some(Self {
@@ -159,6 +172,11 @@ impl NeighbourTable {
             sub_dims: DVec2::new(snx as f64, (ny * sub_n) as f64),
             offsets,
             candidates,
+            points: positions
+                .iter()
+                .copied()
+                .chain([DVec2::splat(f64::INFINITY)])
+                .collect(),
             sub,
         })
     }
@@ -182,7 +200,14 @@ impl NeighbourTable {
         }
         // In range (checked above), so the truncating conversions are exact floors.
         let (sx, sy) = (f.x as u32 as usize, f.y as u32 as usize);
-        match self.sub[sy * self.snx + sx] {
+        let cell = self.sub[sy * self.snx + sx];
+        let test = self.points[cell.test as usize];
+        let code = if test.distance_squared(p) < self.r2 {
+            cell.test
+        } else {
+            cell.otherwise
+        };
+        match code {
             NONE_NEAR => None,
             SCAN => self.scan(p, sx, sy),
             i => Some(i as usize),

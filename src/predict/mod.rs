@@ -381,8 +381,10 @@ fn roll_cliff_lanes(
                 // Single precision: a heading error of 1e-7 rad per step is far below the
                 // sampling noise, and four f32 lanes fill one SSE2 register.
                 let beta = params.beta as f32;
+                // Convert first: a loop that reads f64 lanes vectorises two lanes at a time.
+                let ts: [f32; LANES] = std::array::from_fn(|l| ts[l] as f32);
                 for l in 0..LANES {
-                    let (sin, cos) = fastmath::sin_cos_f32(ts[l] as f32);
+                    let (sin, cos) = fastmath::sin_cos_f32(ts[l]);
                     let (hx, hy) = (ux[l], uy[l]);
                     // |shortest angle| between the sample and the heading, in [0, pi].
                     let delta = fastmath::acos_f32(cos * hx + sin * hy);
