@@ -822,4 +822,38 @@ mod tests {
         let share = near_a as f64 / n as f64;
         assert!((share - 0.75).abs() < 0.01, "{share}");
     }
+
+    #[test]
+    fn padded_sampling_tables_draw_only_real_components() {
+        use rand::SeedableRng;
+        // three components at one location, one at the other: the second is padded
+        let sharp = |theta: f64, w: f64| {
+            let mut c = comp(theta, w);
+            c.cov[0] = 1e-8;
+            c
+        };
+        let m = CliffMap::new(vec![
+            loc(
+                0.0,
+                0.0,
+                1.0,
+                vec![sharp(1.0, 0.2), sharp(2.0, 0.3), sharp(3.0, 0.5)],
+            ),
+            loc(1.0, 0.0, 1.0, vec![sharp(5.0, 1.0)]),
+        ])
+        .unwrap();
+        assert_eq!(m.info().components, 4);
+        assert_eq!(m.info().components_per_location, (1, 3));
+        let mut rng = rand_xoshiro::Xoshiro256PlusPlus::seed_from_u64(11);
+        let mut counts = [0usize; 3];
+        for _ in 0..30000 {
+            let t: f64 = m.direction_at(0).sample(&mut rng);
+            counts[(t.round() as usize).clamp(1, 3) - 1] += 1;
+            let u: f64 = m.direction_at(1).sample(&mut rng);
+            assert!((u - 5.0).abs() < 1e-3, "{u}");
+        }
+        for (c, w) in counts.iter().zip([0.2, 0.3, 0.5]) {
+            assert!((*c as f64 / 30000.0 - w).abs() < 0.015, "{counts:?}");
+        }
+    }
 }

@@ -6,10 +6,13 @@
 //! from is then the first candidate that is actually within the radius.
 //!
 //! Each cell is further split into `n x n` sub-cells (n = 16, 8 or 4: the finest whose
-//! table fits [`MAX_SUB_CELLS`]). Where one location is the
-//! answer for every point of a sub-cell (the usual case), or none is near any of its
-//! points, the sub-cell stores that answer, and a query is a single table load; only
-//! sub-cells on a boundary between answers scan the cell's candidates.
+//! table fits [`MAX_SUB_CELLS`]). A sub-cell stores its answer as a pair: a location to
+//! test and the answer when the test fails. Where one location is the answer for every
+//! point of the sub-cell (the usual case), or none is near any of its points, the test
+//! is a sentinel that always fails; on the edge of one location's circle the test is
+//! that location. A query is then one table load, one distance test and a conditional
+//! move, with no branch that depends on which side of a circle the point falls. Only
+//! sub-cells where more circles meet scan the cell's candidates.
 
 use glam::DVec2;
 
@@ -24,8 +27,11 @@ const NONE_NEAR: u32 = u32::MAX;
 /// Sub-cell code: the answer varies within the sub-cell; scan the cell's candidates.
 const SCAN: u32 = u32::MAX - 1;
 
+/// A sub-cell's answer: `test` if it is strictly within the radius of the query point,
+/// else `otherwise` (a location index, [`NONE_NEAR`] or [`SCAN`]).
 #[derive(Debug, Clone, Copy)]
 struct SubCell {
+    /// Index into [`NeighbourTable::points`]; the last point is a sentinel at infinity.
     test: u32,
     otherwise: u32,
 }
@@ -57,6 +63,7 @@ pub struct NeighbourTable {
     sub_dims: DVec2,
     offsets: Vec<u32>,
     candidates: Vec<Candidate>,
+    /// The map's location positions, then the sentinel (never within the radius).
     points: Vec<DVec2>,
     sub: Vec<SubCell>,
 }
@@ -146,6 +153,7 @@ impl NeighbourTable {
                         .length_squared()
                 };
                 let max_d2 = |q: DVec2| ((q - centre).abs() + half).length_squared();
+                // The candidates (by ratio) that can be near some point of the sub-cell.
                 let mut reachable = list.iter().filter(|c| min_d2(c.position) < hi_r2);
                 let certain = |c: &Candidate| max_d2(c.position) < lo_r2;
                 let (test, otherwise) = match reachable.next() {
@@ -189,8 +197,9 @@ impl NeighbourTable {
     /// The location with the largest observation ratio strictly within the radius of
     /// `p` (ties: the lowest index), as [`CliffMap::best_near`](super::CliffMap::best_near).
     ///
-    /// The usual answer is one table load (inlined into the prediction loop); sub-cells
-    /// on a boundary between answers scan their cell's candidates out of line.
+    /// The usual answer is one table load and one distance test, inlined into the
+    /// prediction loop; sub-cells where several circles meet scan their cell's
+    /// candidates out of line.
     #[inline(always)]
     pub fn best_near(&self, p: DVec2) -> Option<usize> {
         let f = (p - self.origin) * self.inv_sub + DVec2::splat(self.half_sub);
@@ -202,6 +211,7 @@ impl NeighbourTable {
         let (sx, sy) = (f.x as u32 as usize, f.y as u32 as usize);
         let cell = self.sub[sy * self.snx + sx];
         let test = self.points[cell.test as usize];
+        // A conditional move, not a branch: which way it goes is a coin toss per step.
         let code = if test.distance_squared(p) < self.r2 {
             cell.test
         } else {
