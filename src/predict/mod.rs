@@ -271,23 +271,33 @@ pub fn predict_into(
         out.lens.fill(0);
         return Ok(());
     }
-    let lookup = match params.method {
-        Method::Cliff => Some(map.lookup(params.radius)),
-        Method::Cvm => None,
-    };
-    match &lookup {
-        Some(Lookup::Table(t)) => roll_all(map, agents, params, &mut rng, out, |p| t.best_near(p)),
-        Some(Lookup::Grid(m, r)) => {
-            roll_all(map, agents, params, &mut rng, out, |p| m.best_near(p, *r))
+    match params.method {
+        Method::Cvm => {
+            for ((track, len), state) in out
+                .positions
+                .chunks_exact_mut(steps)
+                .zip(out.lens.iter_mut())
+                .zip(agents.iter().flat_map(|s| std::iter::repeat_n(s, params.k)))
+            {
+                roll_cvm(state, params.dt, track);
+                *len = steps as u32;
+            }
         }
-        None => roll_all(map, agents, params, &mut rng, out, |_| None),
+        Method::Cliff => match map.lookup(params.radius) {
+            Lookup::Table(t) => {
+                roll_cliff_all(map, agents, params, &mut rng, out, |p| t.best_near(p))
+            }
+            Lookup::Grid(m, r) => {
+                roll_cliff_all(map, agents, params, &mut rng, out, |p| m.best_near(p, r))
+            }
+        },
     }
     Ok(())
 }
 
-/// Roll every sample of every agent; `near` finds the sampling location (monomorphised
-/// per lookup kind so the hot loop inlines it).
-fn roll_all(
+/// Roll every CLiFF-LHMP sample of every agent; `near` finds the sampling location
+/// (monomorphised per lookup kind so the hot loop inlines it).
+fn roll_cliff_all(
     map: &CliffMap,
     agents: &[State],
     params: &Params,
@@ -296,25 +306,18 @@ fn roll_all(
     near: impl Fn(DVec2) -> Option<usize>,
 ) {
     let steps = params.steps();
-    for (a, state) in agents.iter().enumerate() {
-        let first = a * params.k;
-        let positions = &mut out.positions[first * steps..(first + params.k) * steps];
-        let lens = &mut out.lens[first..first + params.k];
-        match params.method {
-            Method::Cvm => {
-                for (track, len) in positions.chunks_exact_mut(steps).zip(lens.iter_mut()) {
-                    roll_cvm(state, params.dt, track);
-                    *len = steps as u32;
-                }
-            }
-            Method::Cliff => {
-                for (tracks, lens) in positions
-                    .chunks_mut(MAX_LANES * steps)
-                    .zip(lens.chunks_mut(MAX_LANES))
-                {
-                    roll_cliff_group(map, &near, state, params, rng, tracks, lens);
-                }
-            }
+    let per_agent = params.k * steps;
+    for ((positions, lens), state) in out
+        .positions
+        .chunks_exact_mut(per_agent)
+        .zip(out.lens.chunks_exact_mut(params.k))
+        .zip(agents)
+    {
+        for (tracks, lens) in positions
+            .chunks_mut(MAX_LANES * steps)
+            .zip(lens.chunks_mut(MAX_LANES))
+        {
+            roll_cliff_group(map, &near, state, params, rng, tracks, lens);
         }
     }
 }
