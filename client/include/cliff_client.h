@@ -188,6 +188,15 @@ int32_t cliff_predict(struct CliffClient *client,
 // `client` is null or valid.
 void cliff_prediction_release(struct CliffClient *client);
 
+// Ask the daemon to reload every map from its file (as SIGHUP does), waiting at most
+// the client's deadline. A map that fails to load keeps its old version and the call
+// returns `CLIFF_ERR_REJECTED` (status "reload-failed"; `cliff_last_error` names the
+// map). Releases a held prediction.
+//
+// # Safety
+// `client` is a valid client.
+int32_t cliff_client_reload_maps(struct CliffClient *client);
+
 #ifdef __cplusplus
 }  // extern "C"
 #endif  // __cplusplus

@@ -520,3 +520,24 @@ pub unsafe extern "C" fn cliff_prediction_release(client: *mut CliffClient) {
         c.held = None;
     }
 }
+
+/// Ask the daemon to reload every map from its file (as SIGHUP does), waiting at most
+/// the client's deadline. A map that fails to load keeps its old version and the call
+/// returns `CLIFF_ERR_REJECTED` (status "reload-failed"; `cliff_last_error` names the
+/// map). Releases a held prediction.
+///
+/// # Safety
+/// `client` is a valid client.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn cliff_client_reload_maps(client: *mut CliffClient) -> i32 {
+    // SAFETY: valid by contract
+    let Some(c) = (unsafe { client.as_mut() }) else {
+        return invalid("client is NULL");
+    };
+    c.held = None;
+    let deadline = c.client.options().deadline;
+    match c.client.reload_maps(deadline) {
+        Ok(()) => CLIFF_OK,
+        Err(e) => fail(&e),
+    }
+}

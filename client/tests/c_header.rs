@@ -29,6 +29,7 @@ fn c_header_is_up_to_date() {
         "cliff_client_connect",
         "cliff_predict",
         "cliff_request_add_agent",
+        "cliff_client_reload_maps",
         "CLIFF_ERR_DEADLINE",
     ] {
         assert!(text.contains(f), "{f} missing from the header");

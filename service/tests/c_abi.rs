@@ -61,6 +61,7 @@ fn c_example_predicts_through_a_live_daemon() {
         stdout.contains("unknown map: result 4, status unknown-map"),
         "{stdout}"
     );
+    assert!(stdout.contains("reload maps: result 0\n"), "{stdout}");
 
     // the same request in-process gives the same first samples
     let params = Params {

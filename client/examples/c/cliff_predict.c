@@ -1,5 +1,6 @@
 /* A C client of cliffd: predicts two people in the demo hall and prints the first
- * sample of each, then shows how a rejected request reads.
+ * sample of each, shows how a rejected request reads, and asks the daemon to reload
+ * its maps.
  *
  * Build (from the repository root, after `cargo build --release -p cliff-client`):
  *   gcc client/examples/c/cliff_predict.c -I client/include \
@@ -77,8 +78,14 @@ int main(int argc, char **argv) {
     rc = cliff_predict(client, bad, &p);
     printf("unknown map: result %d, status %s\n", rc, cliff_status_name(p.status));
 
+    /* ask the daemon to reload its maps from their files (as SIGHUP does); a map whose
+     * new file fails to load keeps its old version and the call says so */
+    int reload = cliff_client_reload_maps(client);
+    printf("reload maps: result %d%s%s\n", reload, reload == CLIFF_OK ? "" : ", ",
+           reload == CLIFF_OK ? "" : cliff_last_error());
+
     cliff_request_free(bad);
     cliff_request_free(request);
     cliff_client_free(client);
-    return rc == CLIFF_ERR_REJECTED ? 0 : 1;
+    return rc == CLIFF_ERR_REJECTED && reload == CLIFF_OK ? 0 : 1;
 }
