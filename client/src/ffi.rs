@@ -5,7 +5,7 @@
 //! leaves a message for [`cliff_last_error`]. A prediction is read in place from shared
 //! memory: the pointers in [`CliffPrediction`] stay valid until the next
 //! [`cliff_predict`], [`cliff_prediction_release`] or [`cliff_client_free`] on the same
-//! client. A client is not thread-safe: use one per thread.
+//! client. A client may move between threads, one call at a time.
 //!
 //! ```c
 //! CliffClient *c;

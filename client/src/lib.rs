@@ -95,9 +95,15 @@ pub fn prefix_from_env() -> Option<String> {
     std::env::var(PREFIX_ENV).ok().filter(|s| !s.is_empty())
 }
 
-/// The iceoryx2 request-response service type of the protocol.
-pub type PredictService = iceoryx2::service::port_factory::request_response::PortFactory<
-    ipc::Service,
+/// The iceoryx2 service variant of a [`Client`]'s ports: `ipc_threadsafe`, so that a
+/// client can move to (or be shared with) another thread. It talks to a daemon on plain
+/// `ipc` ports: both variants use the same shared-memory resources.
+pub type ClientIpc = ipc_threadsafe::Service;
+
+/// The iceoryx2 request-response service type of the protocol (`S`: the daemon's plain
+/// `ipc` by default, [`ClientIpc`] for clients).
+pub type PredictService<S = ipc::Service> = iceoryx2::service::port_factory::request_response::PortFactory<
+    S,
     [Observation],
     RequestHeader,
     [u32],
@@ -287,20 +293,21 @@ impl Request {
     }
 }
 
-/// A connection to a `cliffd` daemon. Not thread-safe (iceoryx2 `ipc` ports): use one
-/// client per thread.
+/// A connection to a `cliffd` daemon. `Send` and `Sync` (iceoryx2 `ipc_threadsafe`
+/// ports), so it can move to a worker thread; a call takes `&mut self`, so threads that
+/// share one client take turns (for requests in parallel, give each thread its own).
 pub struct Client {
     service_name: String,
     options: ClientOptions,
     // ports first: they drop before the services and the node
-    port: IoxClient<ipc::Service, [Observation], RequestHeader, [u32], ResponseHeader>,
-    wake: Notifier<ipc::Service>,
-    listener: Listener<ipc::Service>,
+    port: IoxClient<ClientIpc, [Observation], RequestHeader, [u32], ResponseHeader>,
+    wake: Notifier<ClientIpc>,
+    listener: Listener<ClientIpc>,
     listener_id: [u64; 2],
-    _service: PredictService,
-    _wake_service: iceoryx2::service::port_factory::event::PortFactory<ipc::Service>,
-    _response_events: iceoryx2::service::port_factory::event::PortFactory<ipc::Service>,
-    node: Node<ipc::Service>,
+    _service: PredictService<ClientIpc>,
+    _wake_service: iceoryx2::service::port_factory::event::PortFactory<ClientIpc>,
+    _response_events: iceoryx2::service::port_factory::event::PortFactory<ClientIpc>,
+    node: Node<ClientIpc>,
     next_id: u64,
     stale: u64,
 }
@@ -335,7 +342,7 @@ impl Client {
         let node = NodeBuilder::new()
             .config(&config)
             .signal_handling_mode(SignalHandlingMode::Disabled)
-            .create::<ipc::Service>()
+            .create::<ClientIpc>()
             .map_err(|e| ipc_err("cannot create node", e))?;
         let name = |s: &str| -> Result<ServiceName, Error> {
             ServiceName::new(s)
@@ -577,7 +584,7 @@ impl Client {
 }
 
 /// An owned response (no lifetime); see [`Prediction`].
-pub(crate) type RawResponse = Response<ipc::Service, [u32], ResponseHeader>;
+pub(crate) type RawResponse = Response<ClientIpc, [u32], ResponseHeader>;
 
 fn check_response(r: RawResponse, id: u64) -> Result<RawResponse, Error> {
     let h = *r.user_header();

@@ -38,6 +38,47 @@ fn daemon_answers_like_the_in_process_predictor() {
     }
 }
 
+#[test]
+fn a_client_moves_to_another_thread_and_can_be_shared() {
+    let ns = Namespace::new("send");
+    let _daemon = Daemon::start(&ns, &[]);
+    let map = CliffMap::demo();
+    // connected here, used on a worker thread (a robot's prediction thread)
+    let mut client = ns.connect(WaitMode::Hybrid);
+    let req = demo_request(3, 2, 20, Method::Cliff);
+    let want = local_bits(&map, &req);
+    let (client, got) = std::thread::spawn(move || {
+        let got = {
+            let p = client.predict(&req).expect("served on the worker thread");
+            (p.shape(), bits(p.positions(), p.lens()))
+        };
+        (client, got)
+    })
+    .join()
+    .unwrap();
+    assert_eq!(got, want);
+    // and shared behind a mutex by two threads taking turns
+    let shared = std::sync::Arc::new(std::sync::Mutex::new(client));
+    let workers: Vec<_> = (0..2u64)
+        .map(|t| {
+            let shared = shared.clone();
+            let map = map.clone();
+            std::thread::spawn(move || {
+                for i in 0..10 {
+                    let req = demo_request(100 * t + i, 1, 10, Method::Cliff);
+                    let want = local_bits(&map, &req);
+                    let mut c = shared.lock().unwrap();
+                    let p = c.predict(&req).expect("served");
+                    assert_eq!((p.shape(), bits(p.positions(), p.lens())), want);
+                }
+            })
+        })
+        .collect();
+    for w in workers {
+        w.join().unwrap();
+    }
+}
+
 use std::time::Duration;
 
 use cliff::eval::dataset::{Format, read_tracks};
