@@ -102,13 +102,14 @@ pub type ClientIpc = ipc_threadsafe::Service;
 
 /// The iceoryx2 request-response service type of the protocol (`S`: the daemon's plain
 /// `ipc` by default, [`ClientIpc`] for clients).
-pub type PredictService<S = ipc::Service> = iceoryx2::service::port_factory::request_response::PortFactory<
-    S,
-    [Observation],
-    RequestHeader,
-    [u32],
-    ResponseHeader,
->;
+pub type PredictService<S = ipc::Service> =
+    iceoryx2::service::port_factory::request_response::PortFactory<
+        S,
+        [Observation],
+        RequestHeader,
+        [u32],
+        ResponseHeader,
+    >;
 
 /// How a client waits for its response.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
