@@ -74,27 +74,35 @@ impl Drop for Namespace {
     }
 }
 
-fn remove_matching(dir: &std::path::Path, prefix: &str, depth: usize) {
+/// Remove the files and directories under `dir` whose names start with `prefix`, and
+/// the directories that this leaves empty (iceoryx2 keeps a node's files in a directory
+/// named after the node id). Returns whether anything was removed.
+fn remove_matching(dir: &std::path::Path, prefix: &str, depth: usize) -> bool {
     let Ok(entries) = std::fs::read_dir(dir) else {
-        return;
+        return false;
     };
+    let mut removed = false;
     for e in entries.flatten() {
         let name = e.file_name();
         let name = name.to_string_lossy();
         let path = e.path();
         if name.starts_with(prefix) {
-            if path.is_dir() {
-                let _ = std::fs::remove_dir_all(&path);
+            removed |= if path.is_dir() {
+                std::fs::remove_dir_all(&path).is_ok()
             } else {
-                let _ = std::fs::remove_file(&path);
-            }
-        } else if path.is_dir() && depth < 4 {
-            remove_matching(&path, prefix, depth + 1);
+                std::fs::remove_file(&path).is_ok()
+            };
+        } else if path.is_dir() && depth < 4 && remove_matching(&path, prefix, depth + 1) {
+            removed = true;
+            // only a directory we emptied ourselves (fails harmlessly when not empty)
+            let _ = std::fs::remove_dir(&path);
         }
     }
+    removed
 }
 
-/// A running `cliffd`, killed (SIGKILL) when dropped unless stopped before.
+/// A running `cliffd`, stopped when dropped (SIGTERM, then SIGKILL if it has not exited
+/// within two seconds) unless stopped before.
 pub struct Daemon {
     pub child: Child,
     pub ready_line: String,
@@ -170,7 +178,14 @@ impl Daemon {
 
 impl Drop for Daemon {
     fn drop(&mut self) {
-        let _ = self.child.kill();
+        if let Ok(None) = self.child.try_wait() {
+            // a clean shutdown removes the daemon's iceoryx2 files
+            // SAFETY: kill(2) on our own child's pid
+            unsafe { libc_kill(self.pid(), 15) };
+            if self.wait_exit(Duration::from_secs(2)).is_none() {
+                let _ = self.child.kill();
+            }
+        }
         let _ = self.child.wait();
     }
 }
