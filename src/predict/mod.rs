@@ -273,14 +273,16 @@ pub fn predict_into(
     }
     match params.method {
         Method::Cvm => {
-            for ((track, len), state) in out
+            for ((positions, lens), state) in out
                 .positions
-                .chunks_exact_mut(steps)
-                .zip(out.lens.iter_mut())
-                .zip(agents.iter().flat_map(|s| std::iter::repeat_n(s, params.k)))
+                .chunks_exact_mut(params.k * steps)
+                .zip(out.lens.chunks_exact_mut(params.k))
+                .zip(agents)
             {
-                roll_cvm(state, params.dt, track);
-                *len = steps as u32;
+                for (track, len) in positions.chunks_exact_mut(steps).zip(lens) {
+                    roll_cvm(state, params.dt, track);
+                    *len = steps as u32;
+                }
             }
         }
         Method::Cliff => match map.lookup(params.radius) {
