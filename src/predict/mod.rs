@@ -4,7 +4,8 @@
 //! caller-owned [`TrajectoryBatch`] (or, through [`predict_into`], into any pair of
 //! slices such as a shared-memory response). Once the buffer is sized, a call does not
 //! allocate. One `Xoshiro256PlusPlus` generator per call, seeded from
-//! [`Params::seed`], draws for the agents in order, then their samples in order: the
+//! [`Params::seed`], draws for the agents in order; an agent's samples advance in
+//! lockstep (groups of up to 20), one draw per live sample per step, in sample order. The
 //! same map, states and parameters give the same bytes.
 //!
 //! ```
