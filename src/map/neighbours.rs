@@ -10,9 +10,9 @@
 //! test and the answer when the test fails. Where one location is the answer for every
 //! point of the sub-cell (the usual case), or none is near any of its points, the test
 //! is a sentinel that always fails; on the edge of one location's circle the test is
-//! that location. A query is then one table load, one distance test and a conditional
-//! move, with no branch that depends on which side of a circle the point falls. Only
-//! sub-cells where more circles meet scan the cell's candidates.
+//! that location. A query is then one table load and one distance test, and its only
+//! branches (nothing near, scan) are rarely taken. Only sub-cells where more circles
+//! meet scan the cell's candidates.
 
 use glam::DVec2;
 
@@ -211,7 +211,7 @@ impl NeighbourTable {
         let (sx, sy) = (f.x as u32 as usize, f.y as u32 as usize);
         let cell = self.sub[sy * self.snx + sx];
         let test = self.points[cell.test as usize];
-        // A conditional move, not a branch: which way it goes is a coin toss per step.
+        // The pair's location if the point is within its circle, else the fallback.
         let code = if test.distance_squared(p) < self.r2 {
             cell.test
         } else {
