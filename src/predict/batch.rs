@@ -1,5 +1,7 @@
 //! The reusable, flat buffer of sampled trajectories.
 
+use super::PredictError;
+
 /// A predicted position `[x, y]` in metres (f32 is ample for buildings: micrometres at 100 m).
 pub type Point = [f32; 2];
 
@@ -33,13 +35,37 @@ impl TrajectoryBatch {
         Self::default()
     }
 
-    /// Set the shape, growing the buffers only when they are too small.
+    /// Set the shape, growing the buffers only when they are too small. For shapes from
+    /// untrusted input use [`try_reshape`](Self::try_reshape): this one panics when the
+    /// size overflows and aborts when the allocation fails.
     pub fn reshape(&mut self, agents: usize, k: usize, steps: usize) {
         self.agents = agents;
         self.k = k;
         self.steps = steps;
         self.positions.resize(agents * k * steps, [f32::NAN; 2]);
         self.lens.resize(agents * k, 0);
+    }
+
+    /// Set the shape like [`reshape`](Self::reshape), but report a size that overflows
+    /// or cannot be allocated as [`PredictError::TooLarge`] (the batch keeps its old
+    /// shape then).
+    pub fn try_reshape(
+        &mut self,
+        agents: usize,
+        k: usize,
+        steps: usize,
+    ) -> Result<(), PredictError> {
+        let too_large = || PredictError::TooLarge { agents, k, steps };
+        let samples = agents.checked_mul(k).ok_or_else(too_large)?;
+        let points = samples.checked_mul(steps).ok_or_else(too_large)?;
+        let more_points = points.saturating_sub(self.positions.len());
+        let more_lens = samples.saturating_sub(self.lens.len());
+        self.positions
+            .try_reserve(more_points)
+            .map_err(|_| too_large())?;
+        self.lens.try_reserve(more_lens).map_err(|_| too_large())?;
+        self.reshape(agents, k, steps);
+        Ok(())
     }
 
     /// `(agents, k, steps)`.

@@ -225,6 +225,16 @@ pub enum PredictError {
         /// Lengths needed.
         need_lens: usize,
     },
+    /// The batch would not fit in memory (its size overflows, or it cannot be allocated).
+    #[error("{agents} agents x {k} samples x {steps} steps is too large a batch to allocate")]
+    TooLarge {
+        /// Agents.
+        agents: usize,
+        /// Samples per agent.
+        k: usize,
+        /// Steps per sample.
+        steps: usize,
+    },
 }
 
 /// Predict `params.k` samples for every agent into `out`, resizing it as needed
@@ -236,7 +246,7 @@ pub fn predict(
     out: &mut TrajectoryBatch,
 ) -> Result<(), PredictError> {
     params.validate()?;
-    out.reshape(agents.len(), params.k, params.steps());
+    out.try_reshape(agents.len(), params.k, params.steps())?;
     predict_into(map, agents, params, out.as_mut())
 }
 
@@ -252,8 +262,16 @@ pub fn predict_into(
 ) -> Result<(), PredictError> {
     params.validate()?;
     let steps = params.steps();
-    let samples = agents.len() * params.k;
-    let need = samples * steps;
+    let too_large = PredictError::TooLarge {
+        agents: agents.len(),
+        k: params.k,
+        steps,
+    };
+    let samples = agents
+        .len()
+        .checked_mul(params.k)
+        .ok_or(too_large.clone())?;
+    let need = samples.checked_mul(steps).ok_or(too_large)?;
     if out.positions.len() != need || out.lens.len() != samples {
         return Err(PredictError::Shape {
             got: out.positions.len(),
@@ -715,6 +733,20 @@ mod tests {
             },
         );
         assert!(matches!(e, Err(PredictError::Shape { .. })));
+        // a batch that overflows or cannot be allocated is an error, not an abort
+        for k in [usize::MAX / 2, 1 << 44] {
+            let p = Params {
+                k,
+                ..Params::default()
+            };
+            assert!(matches!(
+                predict(&map, &w, &p, &mut b),
+                Err(PredictError::TooLarge { .. })
+            ));
+        }
+        // and the buffer still works afterwards
+        predict(&map, &w, &Params::default(), &mut b).unwrap();
+        assert_eq!(b.shape(), (1, 20, 30));
     }
 
     #[test]
