@@ -119,6 +119,49 @@ fn bench_prints_the_json_contract_and_verifies_every_response() {
 }
 
 #[test]
+fn bench_paces_requests_with_rate() {
+    let ns = Namespace::new("benchrate");
+    let _daemon = Daemon::start(&ns, &[]);
+    let out = bench(
+        &ns,
+        &[
+            "--requests",
+            "20",
+            "--warmup",
+            "2",
+            "--rate",
+            "100",
+            "--k",
+            "5",
+            "--steps",
+            "10",
+            "--wait",
+            "block",
+            "--json",
+        ],
+    );
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{stdout}");
+    let v: serde_json::Value = serde_json::from_str(stdout.trim()).expect("one JSON object");
+    assert_eq!(v["rate_hz"], 100.0);
+    assert_eq!(v["completed"], 20);
+    // 20 requests on a 10 ms schedule take at least 190 ms: at most ~105 per second
+    let rps = v["requests_per_s"].as_f64().unwrap();
+    assert!(rps > 0.0 && rps < 110.0, "{rps} requests/s at --rate 100");
+    // the table says so
+    let out = bench(&ns, &["--requests", "5", "--warmup", "1", "--rate", "200"]);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(text.contains("paced at 200 requests/s"), "{text}");
+    // and a rate that is no rate is refused
+    for bad in ["0", "-5", "nan"] {
+        let out = bench(&ns, &["--requests", "5", &format!("--rate={bad}")]);
+        assert!(!out.status.success());
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(err.contains("--rate"), "{bad}: {err}");
+    }
+}
+
+#[test]
 fn bench_without_a_daemon_fails_with_a_clear_message() {
     let ns = Namespace::new("benchnone");
     let out = bench(&ns, &["--requests", "10", "--json"]);

@@ -26,6 +26,12 @@ use cliff_client::{Client, ClientOptions, Error, LocalPredictor, Observation, Re
 ///
 /// With `cliffd --map hall=hall.csv`, pass `--map hall --map-file hall.csv` so the
 /// in-process side uses the same map.
+///
+/// Back-to-back requests keep every cache and core warm. A robot asks a few times a
+/// second, and between its requests the daemon goes to sleep; `--rate 10` paces each
+/// client (and the in-process side) at 10 requests per second to measure that case:
+///
+///   cliff-bench --requests 200 --rate 10 --wait hybrid
 #[derive(Parser, Debug)]
 #[command(name = "cliff-bench", version, about, long_about)]
 struct Args {
@@ -75,6 +81,11 @@ struct Args {
     /// with more spinning clients than free cores, use hybrid or block.
     #[arg(long, default_value = "spin")]
     wait: WaitMode,
+
+    /// Requests per second of each client (and of the in-process side), paced on a fixed
+    /// schedule; default: back to back. The measured time excludes the pauses.
+    #[arg(long)]
+    rate: Option<f64>,
 
     /// Microseconds a hybrid client spins before it sleeps.
     #[arg(long, default_value_t = 200)]
@@ -211,8 +222,10 @@ fn run_client(
     let mut local = LocalPredictor::default();
     out.latencies_ns.reserve(a.requests);
     barrier.wait();
+    let mut pace = Pace::new(a.rate);
     for i in 0..a.requests {
         let req = &pool[(offset + i) % pool.len()];
+        pace.wait();
         let t0 = Instant::now();
         let r = client.predict(req);
         match r {
@@ -250,6 +263,33 @@ fn run_client(
     }
     out.finished = Some(Instant::now());
     out
+}
+
+/// A fixed schedule of requests (`--rate`): `wait` sleeps until the next slot.
+struct Pace {
+    period: Option<Duration>,
+    next: Instant,
+}
+
+impl Pace {
+    fn new(rate: Option<f64>) -> Pace {
+        Pace {
+            period: rate.map(|r| Duration::from_secs_f64(1.0 / r)),
+            next: Instant::now(),
+        }
+    }
+
+    fn wait(&mut self) {
+        let Some(period) = self.period else {
+            return;
+        };
+        let now = Instant::now();
+        if let Some(pause) = self.next.checked_duration_since(now) {
+            std::thread::sleep(pause);
+        }
+        // a late request does not make the next ones early
+        self.next = self.next.max(now) + period;
+    }
 }
 
 struct Summary {
@@ -293,6 +333,13 @@ fn main() -> ExitCode {
 fn run(a: Args) -> Result<ExitCode, String> {
     if a.clients == 0 || a.requests == 0 || a.agents == 0 || a.k == 0 || a.steps == 0 {
         return Err("--clients, --requests, --agents, --k and --steps must be at least 1".into());
+    }
+    if let Some(r) = a.rate
+        && !(r.is_finite() && r > 0.0 && r <= 1e6)
+    {
+        return Err(format!(
+            "--rate {r}: expected requests per second, more than 0 and at most 1000000"
+        ));
     }
     let map = match (&a.map_file, a.map.as_str()) {
         (Some(p), _) => CliffMap::load(p).map_err(|e| e.to_string())?,
@@ -347,8 +394,10 @@ fn run(a: Args) -> Result<ExitCode, String> {
             .map_err(|e| e.to_string())?;
     }
     let mut inproc = Vec::with_capacity(a.requests);
+    let mut pace = Pace::new(a.rate);
     for i in 0..a.requests {
         let req = &pool[i % pool.len()];
+        pace.wait();
         let t0 = Instant::now();
         let b = local
             .predict(&map, req.header(), req.rows())
@@ -381,6 +430,7 @@ fn run(a: Args) -> Result<ExitCode, String> {
             "method": a.method.name(),
             "map": a.map,
             "wait": a.wait.to_string(),
+            "rate_hz": a.rate,
             "p50_us": s.p50,
             "p90_us": s.p90,
             "p99_us": s.p99,
@@ -403,8 +453,15 @@ fn run(a: Args) -> Result<ExitCode, String> {
         println!("{v}");
     } else {
         println!(
-            "cliff-bench: {} client(s) x {} requests (+{} warm-up each) to cliffd '{}'",
-            a.clients, a.requests, a.warmup, a.service
+            "cliff-bench: {} client(s) x {} requests (+{} warm-up each) to cliffd '{}'{}",
+            a.clients,
+            a.requests,
+            a.warmup,
+            a.service,
+            match a.rate {
+                Some(r) => format!(", each client paced at {r} requests/s"),
+                None => ", back to back".to_string(),
+            }
         );
         println!(
             "  each request: {} agent(s) x k {} samples x {} steps (dt {} s, horizon {:.1} s), method {}, map {}; client wait: {}",
