@@ -117,7 +117,10 @@ pub enum WaitMode {
     /// Busy-poll until the response is there. Needs a core of its own: on a host with
     /// more busy threads than cores, use [`WaitMode::Hybrid`].
     Spin,
-    /// Busy-poll for [`ClientOptions::spin`], then sleep on the daemon's event.
+    /// Busy-poll for [`ClientOptions::spin`], then sleep on the daemon's event. When
+    /// the daemon has gone to sleep since the last response (its responses say how long
+    /// it stays awake), sleep at once: the daemon has to be woken first, and a spinning
+    /// client only delays that on a busy or virtualised host.
     #[default]
     Hybrid,
     /// Sleep on the daemon's event at once.
@@ -311,6 +314,9 @@ pub struct Client {
     node: Node<ClientIpc>,
     next_id: u64,
     stale: u64,
+    /// Until when the daemon is expected to poll for requests (from its last response's
+    /// [`ResponseHeader::awake_us`]); `None`: not known yet.
+    daemon_awake_until: Option<Instant>,
 }
 
 impl fmt::Debug for Client {
@@ -412,6 +418,7 @@ impl Client {
             node,
             next_id: seed | 1,
             stale: 0,
+            daemon_awake_until: None,
         })
     }
 
@@ -438,6 +445,14 @@ impl Client {
     /// The service name.
     pub fn service(&self) -> &str {
         &self.service_name
+    }
+
+    /// Whether the daemon is expected to be polling for requests now: it said in its
+    /// last response how long it stays awake, and that time has not passed (true when
+    /// nothing is known yet). A [`WaitMode::Hybrid`] client spins only then.
+    pub fn daemon_awake(&self) -> bool {
+        self.daemon_awake_until
+            .is_none_or(|until| Instant::now() < until)
     }
 
     /// Responses dropped because their request id did not match (stale responses).
@@ -526,8 +541,16 @@ impl Client {
         let mut next_liveness = start + LIVENESS_INTERVAL;
         let spin_until = match self.options.wait {
             WaitMode::Spin => None,
-            WaitMode::Hybrid => Some(start + self.options.spin),
-            WaitMode::Block => Some(start),
+            WaitMode::Hybrid if self.daemon_awake_until.is_none_or(|t| start < t) => {
+                Some(start + self.options.spin)
+            }
+            WaitMode::Hybrid | WaitMode::Block => Some(start),
+        };
+        // the daemon's promise to stay awake, with a margin for the time the response
+        // took to reach us
+        let awake_until = |h: &ResponseHeader| {
+            (h.awake_us > 0)
+                .then(|| Instant::now() + Duration::from_micros(h.awake_us as u64) * 9 / 10)
         };
         let mut polls = 0u32;
         loop {
@@ -537,6 +560,7 @@ impl Client {
                         self.stale += 1;
                         continue;
                     }
+                    self.daemon_awake_until = awake_until(response.user_header());
                     return check_response(response, id);
                 }
                 Ok(None) => {}
@@ -556,7 +580,10 @@ impl Client {
                 // the daemon dropped the request: either it answered (and the response
                 // is in the buffer now) or it went away
                 return match pending.receive() {
-                    Ok(Some(r)) if r.user_header().request_id == id => check_response(r, id),
+                    Ok(Some(r)) if r.user_header().request_id == id => {
+                        self.daemon_awake_until = awake_until(r.user_header());
+                        check_response(r, id)
+                    }
                     _ => Err(gone()),
                 };
             }

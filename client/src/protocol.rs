@@ -243,8 +243,11 @@ pub struct ResponseHeader {
     pub field: u32,
     /// For a rejection over a limit: the limit.
     pub limit: u32,
-    /// Reserved, zero.
-    pub reserved: u32,
+    /// How long (us) the daemon keeps polling for requests after this response before
+    /// it sleeps on its event (0: not said). A request sent within this time finds it
+    /// awake; a later one has to wake it, and a [`WaitMode::Hybrid`](crate::WaitMode)
+    /// client then sleeps at once instead of spinning.
+    pub awake_us: u32,
 }
 
 impl ResponseHeader {

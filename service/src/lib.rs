@@ -506,7 +506,7 @@ impl Daemon {
             if let Some(rej) = rejection {
                 debug!(request_id = h.request_id, "rejected: {rej}");
                 self.stats.rejected += 1;
-                let mut rh = response_header(&h);
+                let mut rh = response_header(&h, self.settings.idle_spin);
                 rej.write_to(&mut rh);
                 let sent = send_empty(req, rh);
                 self.after_send(&h, sent);
@@ -555,7 +555,7 @@ impl Daemon {
                 continue; // answered in step 1
             };
             let h = slot.header;
-            let mut rh = response_header(&h);
+            let mut rh = response_header(&h, self.settings.idle_spin);
             let sent = if slot.ok {
                 rh.agents = slot.scratch.states().len() as u32;
                 rh.k = slot.params.k as u32;
@@ -704,11 +704,7 @@ impl Daemon {
     fn finish_reload(&mut self, error: Option<String>) {
         for req in std::mem::take(&mut self.reload_waiters) {
             let h = *req.user_header();
-            let mut rh = ResponseHeader {
-                version: PROTOCOL_VERSION,
-                request_id: h.request_id,
-                ..ResponseHeader::default()
-            };
+            let mut rh = response_header(&h, self.settings.idle_spin);
             if error.is_some() {
                 Rejection {
                     status: Status::ReloadFailed,
@@ -748,10 +744,13 @@ fn decode(
     protocol::decode_request(h, rows, limits, scratch).map(|p| (0, p))
 }
 
-fn response_header(h: &RequestHeader) -> ResponseHeader {
+/// A response header for request `h`; `awake` is how long the daemon keeps polling
+/// after answering (see [`ResponseHeader::awake_us`]).
+fn response_header(h: &RequestHeader, awake: Duration) -> ResponseHeader {
     ResponseHeader {
         version: PROTOCOL_VERSION,
         request_id: h.request_id,
+        awake_us: awake.as_micros().min(u32::MAX as u128) as u32,
         ..ResponseHeader::default()
     }
 }

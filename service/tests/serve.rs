@@ -39,6 +39,37 @@ fn daemon_answers_like_the_in_process_predictor() {
 }
 
 #[test]
+fn responses_say_how_long_the_daemon_stays_awake() {
+    let map = CliffMap::demo();
+    let req = demo_request(5, 1, 20, Method::Cliff);
+    let want = local_bits(&map, &req);
+    // default: the daemon polls for 1 ms after a request, then sleeps on its event
+    let ns = Namespace::new("awake");
+    let _daemon = Daemon::start(&ns, &[]);
+    let mut client = ns.connect(WaitMode::Hybrid);
+    assert!(client.daemon_awake(), "nothing is known before the first response");
+    let got = |c: &mut cliff_client::Client| {
+        let p = c.predict(&req).expect("served");
+        (p.shape(), bits(p.positions(), p.lens()))
+    };
+    assert_eq!(got(&mut client), want);
+    std::thread::sleep(Duration::from_millis(30));
+    assert!(!client.daemon_awake(), "the daemon said it sleeps after 1 ms");
+    // a hybrid client then sleeps at once, and the sleeping daemon still answers
+    for _ in 0..3 {
+        assert_eq!(got(&mut client), want);
+        std::thread::sleep(Duration::from_millis(30));
+    }
+    // a daemon told to stay awake for 10 s says so
+    let ns = Namespace::new("awake10");
+    let _daemon = Daemon::start(&ns, &["--idle-spin-us", "10000000"]);
+    let mut client = ns.connect(WaitMode::Hybrid);
+    assert_eq!(got(&mut client), want);
+    std::thread::sleep(Duration::from_millis(30));
+    assert!(client.daemon_awake());
+}
+
+#[test]
 fn a_client_moves_to_another_thread_and_can_be_shared() {
     let ns = Namespace::new("send");
     let _daemon = Daemon::start(&ns, &[]);
