@@ -118,9 +118,10 @@ pub enum WaitMode {
     /// more busy threads than cores, use [`WaitMode::Hybrid`].
     Spin,
     /// Busy-poll for [`ClientOptions::spin`], then sleep on the daemon's event. When
-    /// the daemon has gone to sleep since the last response (its responses say how long
-    /// it stays awake), sleep at once: the daemon has to be woken first, and a spinning
-    /// client only delays that on a busy or virtualised host.
+    /// the daemon has gone to sleep since this client's last response (its responses
+    /// say how long it stays awake; other clients' requests may have kept it awake
+    /// since, which this client cannot see), sleep at once: the daemon has to be woken
+    /// first, and a spinning client only delays that on a busy or virtualised host.
     #[default]
     Hybrid,
     /// Sleep on the daemon's event at once.
