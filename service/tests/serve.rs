@@ -47,14 +47,20 @@ fn responses_say_how_long_the_daemon_stays_awake() {
     let ns = Namespace::new("awake");
     let _daemon = Daemon::start(&ns, &[]);
     let mut client = ns.connect(WaitMode::Hybrid);
-    assert!(client.daemon_awake(), "nothing is known before the first response");
+    assert!(
+        client.daemon_awake(),
+        "nothing is known before the first response"
+    );
     let got = |c: &mut cliff_client::Client| {
         let p = c.predict(&req).expect("served");
         (p.shape(), bits(p.positions(), p.lens()))
     };
     assert_eq!(got(&mut client), want);
     std::thread::sleep(Duration::from_millis(30));
-    assert!(!client.daemon_awake(), "the daemon said it sleeps after 1 ms");
+    assert!(
+        !client.daemon_awake(),
+        "the daemon said it sleeps after 1 ms"
+    );
     // a hybrid client then sleeps at once, and the sleeping daemon still answers
     for _ in 0..3 {
         assert_eq!(got(&mut client), want);
