@@ -452,8 +452,11 @@ impl Client {
     /// last response how long it stays awake, and that time has not passed (true when
     /// nothing is known yet). A [`WaitMode::Hybrid`] client spins only then.
     pub fn daemon_awake(&self) -> bool {
-        self.daemon_awake_until
-            .is_none_or(|until| Instant::now() < until)
+        self.daemon_awake_at(Instant::now())
+    }
+
+    fn daemon_awake_at(&self, t: Instant) -> bool {
+        self.daemon_awake_until.is_none_or(|until| t < until)
     }
 
     /// Responses dropped because their request id did not match (stale responses).
@@ -542,9 +545,7 @@ impl Client {
         let mut next_liveness = start + LIVENESS_INTERVAL;
         let spin_until = match self.options.wait {
             WaitMode::Spin => None,
-            WaitMode::Hybrid if self.daemon_awake_until.is_none_or(|t| start < t) => {
-                Some(start + self.options.spin)
-            }
+            WaitMode::Hybrid if self.daemon_awake_at(start) => Some(start + self.options.spin),
             WaitMode::Hybrid | WaitMode::Block => Some(start),
         };
         // the daemon's promise to stay awake, with a margin for the time the response
