@@ -8,12 +8,12 @@
 #   cargo build --release -p cliff-service -p cliff-client
 #   benches/daemon_series.sh > series.jsonl
 #
-# Runs in its own iceoryx2 namespace (prefix `series_<pid>_`), so it does not meet a
+# Runs in its own iceoryx2 namespace (prefix `cliff_series_`), so it does not meet a
 # daemon you already run. Needs both cores to itself: close other work first.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bin=${CARGO_TARGET_DIR:-target}/release
-export CLIFF_IPC_PREFIX="series_$$_"
+export CLIFF_IPC_PREFIX="cliff_series_"
 daemon=
 stop() { if [ -n "$daemon" ]; then kill -INT "$daemon" 2>/dev/null || true; wait "$daemon" 2>/dev/null || true; fi; daemon=; }
 trap stop EXIT
