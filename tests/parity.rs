@@ -1,13 +1,17 @@
-//! Parity with the published CLiFF-LHMP implementation on the real THÖR data.
+//! Parity with the published CLiFF-LHMP implementation on the real THÖR and ATC data.
 //!
-//! The reference figures are ../shared/docs/reference-parity.csv (every 0.4 s step, the
-//! reference's rounding). Settings: reference protocol, r_s = 0.5 in the reference's
-//! sense (radius 0.7071), beta 1, dt 0.4, horizon 12, k 20.
+//! THÖR: the reference figures are ../shared/docs/reference-parity.csv (every 0.4 s
+//! step, the reference's rounding). Settings: reference protocol, r_s = 0.5 in the
+//! reference's sense (radius 0.7071), beta 1, dt 0.4, horizon 12, k 20.
+//!
+//! ATC at 1 Hz: ../shared/docs/reference-parity-atc-dev.csv (every second up to 50 s),
+//! the published code on atc/dev with the shipped map: 8 observed rows, dt 1, radius 1,
+//! beta 1, k 20; its idle filter is 10 rows (10 s at 1 Hz).
 
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
-use cliff::eval::dataset::{Format, read_tracks};
+use cliff::eval::dataset::{Format, read_many, read_tracks};
 use cliff::eval::protocol::Settings;
 use cliff::eval::{EvalConfig, SummaryRow, evaluate};
 use cliff::map::CliffMap;
@@ -173,4 +177,108 @@ fn evaluation_is_reproducible_and_seed_dependent() {
         a.iter().find(|r| r.method == Method::Cliff).unwrap().ade,
         c.iter().find(|r| r.method == Method::Cliff).unwrap().ade
     );
+}
+
+/// horizon in whole seconds -> (method, people, ADE, FDE) rows of the ATC reference table.
+fn atc_reference() -> HashMap<(String, u32), (f64, f64, f64)> {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../shared/docs/reference-parity-atc-dev.csv");
+    let text = std::fs::read_to_string(path).unwrap();
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let col = |name: &str| header.iter().position(|h| *h == name).unwrap();
+    let (cm, ch, cn, ca, cf) = (
+        col("method"),
+        col("horizon"),
+        col("people"),
+        col("ADE"),
+        col("FDE"),
+    );
+    lines
+        .map(|l| {
+            let f: Vec<&str> = l.split(',').collect();
+            let h: f64 = f[ch].parse().unwrap();
+            (
+                (f[cm].to_string(), h.round() as u32),
+                (
+                    f[cn].parse().unwrap(),
+                    f[ca].parse().unwrap(),
+                    f[cf].parse().unwrap(),
+                ),
+            )
+        })
+        .collect()
+}
+
+#[test]
+fn atc_dev_at_one_hertz_matches_the_reference() {
+    let map = CliffMap::load(data("atc/cliffmap-20121024.csv")).unwrap();
+    let mut files: Vec<PathBuf> = std::fs::read_dir(data("atc/dev"))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .collect();
+    files.sort();
+    let tracks = read_many(&files, Format::Atc).unwrap();
+    let cfg = EvalConfig {
+        settings: Settings {
+            obs: 8.0,
+            dt: 1.0,
+            horizon: 50.0,
+            ..Settings::default()
+        },
+        params: Params {
+            k: 20,
+            beta: 1.0,
+            radius: 1.0,
+            ..Params::default()
+        },
+        seeds: 20,
+        methods: vec![Method::Cliff, Method::Cvm],
+    };
+    let report = evaluate(&map, &tracks, &cfg, &|| {}).unwrap();
+    let reference = atc_reference();
+    let (mut cvm_checked, mut cliff_checked) = (0, 0);
+    for r in &report.summary {
+        let second = r.horizon.round() as u32;
+        if (r.horizon - second as f64).abs() > 1e-9 {
+            continue;
+        }
+        let Some(&(people, ade, fde)) = reference.get(&(r.method.name().to_string(), second))
+        else {
+            continue;
+        };
+        match r.method {
+            Method::Cvm => {
+                assert_eq!(r.people, people, "atc cvm {second}s people");
+                assert!(
+                    (r.ade - ade).abs() <= 0.002 && (r.fde - fde).abs() <= 0.002,
+                    "atc cvm {second}s ADE/FDE {} {} vs {ade} {fde}",
+                    r.ade,
+                    r.fde
+                );
+                cvm_checked += 1;
+            }
+            Method::Cliff if [5, 10, 20, 30].contains(&second) => {
+                assert!(
+                    (r.people - people).abs() <= 1.0,
+                    "atc cliff {second}s people {} vs {people}",
+                    r.people
+                );
+                assert!(
+                    (r.ade / ade - 1.0).abs() <= 0.03,
+                    "atc cliff {second}s ADE {} vs {ade}",
+                    r.ade
+                );
+                assert!(
+                    (r.fde / fde - 1.0).abs() <= 0.04,
+                    "atc cliff {second}s FDE {} vs {fde}",
+                    r.fde
+                );
+                cliff_checked += 1;
+            }
+            Method::Cliff => {}
+        }
+    }
+    assert_eq!(cvm_checked, 50, "atc: CVM horizons compared");
+    assert_eq!(cliff_checked, 4, "atc: CLiFF-LHMP horizons compared");
 }

@@ -63,9 +63,11 @@ pub struct Settings {
     /// Velocity kernel width.
     pub sigma: f64,
     /// Idle filter: people moving less than `idle_distance` metres within any
-    /// `idle_window` seconds are skipped.
+    /// window (`idle_window` seconds; [`REFERENCE_IDLE_ROWS`] rows in the reference
+    /// protocol) are skipped.
     pub idle_distance: f64,
-    /// Idle filter window (s); 4 s (10 rows at 2.5 Hz) in the reference.
+    /// Idle filter window (s) of the `seconds` protocol. The reference protocol ignores
+    /// it and uses [`REFERENCE_IDLE_ROWS`] rows whatever the rate, as published.
     pub idle_window: f64,
 }
 
@@ -90,11 +92,11 @@ impl Settings {
         (self.obs / self.dt).round().max(1.0) as usize
     }
 
-    /// Rows of the reference idle window: `round(idle_window / dt)`.
-    fn idle_rows(&self) -> usize {
-        (self.idle_window / self.dt).round().max(1.0) as usize
-    }
 }
+
+/// Rows of the reference protocol's idle window: the published code compares row `i`
+/// with row `i + 10` whatever the data rate (4 s at 2.5 Hz, 10 s at 1 Hz).
+pub const REFERENCE_IDLE_ROWS: usize = 10;
 
 /// One person prepared for evaluation.
 #[derive(Debug, Clone, PartialEq)]
@@ -158,7 +160,7 @@ fn prepare_reference(track: &Track, s: &Settings) -> Option<Case> {
     if last_t - rows[obs].t < s.dt {
         return None;
     }
-    let w = s.idle_rows();
+    let w = REFERENCE_IDLE_ROWS;
     if rows.len() > w
         && rows
             .windows(w + 1)
@@ -304,6 +306,27 @@ mod tests {
         // 10 rows of 0.4 s covering 0.9 m: idle
         assert!(prepare(&track(30, 0.4, 0.9 / 4.0), &s).is_none());
         assert!(prepare(&track(30, 0.4, 1.1 / 4.0), &s).is_some());
+    }
+
+    #[test]
+    fn reference_idle_filter_counts_rows_at_any_rate() {
+        // At 1 Hz the published code still compares rows 10 apart (10 s), not 4 s.
+        let s = Settings {
+            obs: 8.0,
+            dt: 1.0,
+            horizon: 50.0,
+            ..Settings::default()
+        };
+        // 0.15 m/s: 0.6 m in 4 s (idle by a 4 s window), 1.5 m in 10 rows (moving)
+        assert!(prepare(&track(30, 1.0, 0.15), &s).is_some());
+        // 0.09 m/s: 0.9 m in 10 rows: idle
+        assert!(prepare(&track(30, 1.0, 0.09), &s).is_none());
+        // the seconds protocol keeps its 4 s window
+        let secs = Settings {
+            protocol: Protocol::Seconds,
+            ..s
+        };
+        assert!(prepare(&track(30, 1.0, 0.15), &secs).is_none());
     }
 
     #[test]

@@ -18,8 +18,9 @@ use crate::map_cmd::load_map;
 /// Protocol and prediction parameters shared by `eval` and `predict`.
 #[derive(Args, Debug, Clone)]
 pub struct PredictionArgs {
-    /// Evaluation protocol: `reference` (the published code's row-based rules, for parity)
-    /// or `seconds` (the same rules stated in time, for data at any rate).
+    /// Evaluation protocol: `reference` (the published code's row-based rules, for parity:
+    /// observed rows, 10-row idle filter whatever the rate) or `seconds` (the same rules
+    /// stated in time, with a 4 s idle window, for data at any rate).
     #[arg(long, default_value = "seconds")]
     pub protocol: Protocol,
     /// Observed history (s); the reference protocol turns it into rows (3.2 s at 0.4 s = 8 rows).
