@@ -129,6 +129,19 @@ impl GridIndex {
         (self.nx, self.ny)
     }
 
+    /// The most locations [`for_each_candidate`](Self::for_each_candidate) can visit
+    /// for `radius`: the cells whose centres lie in a square of side `2 r` around the
+    /// point (`r` = radius in cells), at most `floor(2 r) + 1` along each axis and one
+    /// location per cell, capped by the grid's size.
+    pub fn max_candidates(&self, radius: f64) -> usize {
+        let r = radius / self.step + ON_GRID_TOLERANCE;
+        if !(r >= 0.0) {
+            return 0;
+        }
+        let side = |n: usize| ((2.0 * r).floor() + 1.0).min(n as f64) as usize;
+        side(self.nx) * side(self.ny)
+    }
+
     /// Call `f` with every location whose cell lies within `radius` (plus half a cell)
     /// of `p` along both axes: a superset of the locations within `radius`.
     #[inline]

@@ -26,11 +26,12 @@ mod grid;
 mod neighbours;
 pub mod score;
 mod snapshot;
+mod tables;
 pub mod update;
 
 use std::f64::consts::TAU;
 use std::path::Path;
-use std::sync::{Arc, RwLock};
+use std::sync::Arc;
 
 use glam::DVec2;
 use rand::distr::Distribution;
@@ -44,6 +45,7 @@ pub use grid::GridIndex;
 pub use neighbours::NeighbourTable;
 pub use score::{ScoreParams, ScoreReport, score};
 pub use snapshot::{SNAPSHOT_MAGIC, SNAPSHOT_VERSION, read_snapshot, write_snapshot};
+pub use tables::{DEFAULT_TABLE_BUDGET, TableCache, TableError, TableStats};
 pub use update::{OnlineMap, UpdateParams};
 
 /// One semi-wrapped normal component of a location's velocity mixture.
@@ -226,9 +228,6 @@ fn pad_components(
     (starts, padded)
 }
 
-/// Most radii whose neighbour tables a map keeps; further radii use the grid scan.
-const MAX_CACHED_RADII: usize = 8;
-
 /// A CLiFF-map: locations on a regular grid with a grid index and sampling tables.
 #[derive(Debug)]
 pub struct CliffMap {
@@ -240,8 +239,8 @@ pub struct CliffMap {
     comp_start: Vec<u32>,
     table: Vec<DirectionComponent>,
     report: MapReport,
-    /// Neighbour tables built so far, one per sampling radius.
-    neighbours: RwLock<Vec<Arc<NeighbourTable>>>,
+    /// Neighbour tables built so far, one per sampling radius, under a memory budget.
+    tables: TableCache,
 }
 
 impl Clone for CliffMap {
@@ -254,12 +253,7 @@ impl Clone for CliffMap {
             comp_start: self.comp_start.clone(),
             table: self.table.clone(),
             report: self.report,
-            neighbours: RwLock::new(
-                self.neighbours
-                    .read()
-                    .map(|v| v.clone())
-                    .unwrap_or_default(),
-            ),
+            tables: self.tables.clone(),
         }
     }
 }
@@ -281,6 +275,17 @@ impl Lookup<'_> {
         match self {
             Lookup::Table(t) => t.best_near(p),
             Lookup::Grid(m, r) => m.best_near(p, *r),
+        }
+    }
+
+    /// The most locations one query can test for distance: a bound on the work of
+    /// [`best_near`](Self::best_near), whatever the point. Through a table, the longest
+    /// candidate list of a cell; through the grid scan, the cells within the radius
+    /// (each holds at most one location).
+    pub fn max_tests(&self) -> usize {
+        match self {
+            Lookup::Table(t) => t.max_scan().max(1),
+            Lookup::Grid(m, r) => m.grid.max_candidates(*r),
         }
     }
 }
@@ -391,7 +396,7 @@ impl CliffMap {
             comp_start,
             table,
             report,
-            neighbours: RwLock::new(Vec::new()),
+            tables: TableCache::default(),
         })
     }
 
@@ -496,35 +501,56 @@ impl CliffMap {
         best
     }
 
-    /// A [`Lookup`] for `radius`: through a neighbour table, built on first use of the
-    /// radius and kept (up to 8 radii per map, at most 16 MiB each), else through the grid scan. Both give
-    /// the same answers as [`best_near`](Self::best_near).
+    /// A [`Lookup`] for `radius`: through the neighbour table, built on first use of the
+    /// radius and kept under the map's table budget ([`set_table_budget`](Self::set_table_budget)),
+    /// else (a table too large, or a radius whose build failed before) through the grid
+    /// scan. Both give the same answers as [`best_near`](Self::best_near).
+    ///
+    /// Building a table takes milliseconds for the usual radii, but grows with the
+    /// radius squared: a caller that must not stall uses [`cached_lookup`](Self::cached_lookup)
+    /// and builds elsewhere with [`build_table`](Self::build_table).
     pub fn lookup(&self, radius: f64) -> Lookup<'_> {
-        if let Ok(cache) = self.neighbours.read()
-            && let Some(t) = cache.iter().find(|t| t.radius() == radius)
-        {
-            return Lookup::Table(t.clone());
+        match self.build_table(radius, false) {
+            Ok(t) => Lookup::Table(t),
+            Err(_) => Lookup::Grid(self, radius),
         }
-        if !(radius.is_finite() && radius > 0.0) {
-            return Lookup::Grid(self, radius);
-        }
-        let Ok(mut cache) = self.neighbours.write() else {
-            return Lookup::Grid(self, radius);
-        };
-        if let Some(t) = cache.iter().find(|t| t.radius() == radius) {
-            return Lookup::Table(t.clone());
-        }
-        if cache.len() >= MAX_CACHED_RADII {
-            return Lookup::Grid(self, radius);
-        }
-        match NeighbourTable::build(&self.grid, &self.positions, &self.ratios, radius) {
-            Some(t) => {
-                let t = Arc::new(t);
-                cache.push(t.clone());
-                Lookup::Table(t)
-            }
+    }
+
+    /// A [`Lookup`] for `radius` that never builds: the table when it is built, else
+    /// the grid scan (same answers, slower for large radii).
+    #[inline]
+    pub fn cached_lookup(&self, radius: f64) -> Lookup<'_> {
+        match self.tables.get(radius) {
+            Some(t) => Lookup::Table(t),
             None => Lookup::Grid(self, radius),
         }
+    }
+
+    /// Build (or find) the neighbour table of `radius` and keep it, evicting the least
+    /// recently used unpinned tables to stay within the budget; `pin` keeps it from
+    /// eviction. A failed build (a table larger than the budget left by pinned tables)
+    /// is remembered and returned again without building.
+    pub fn build_table(&self, radius: f64, pin: bool) -> Result<Arc<NeighbourTable>, TableError> {
+        self.tables.get_or_build(radius, pin, |max_bytes| {
+            NeighbourTable::build(&self.grid, &self.positions, &self.ratios, radius, max_bytes)
+        })
+    }
+
+    /// True when `radius` has a table or a remembered failed build (so
+    /// [`build_table`](Self::build_table) would return at once).
+    pub fn table_settled(&self, radius: f64) -> bool {
+        self.tables.settled(radius)
+    }
+
+    /// Set the memory all neighbour tables of this map may take together (bytes;
+    /// [`DEFAULT_TABLE_BUDGET`] unless set). Unpinned tables are evicted to fit.
+    pub fn set_table_budget(&self, bytes: usize) {
+        self.tables.set_budget(bytes);
+    }
+
+    /// The radii with a table, their size and the failed builds.
+    pub fn table_stats(&self) -> TableStats {
+        self.tables.stats()
     }
 
     /// The nearest location within `radius` of `p` (ties: the first in order).

@@ -16,7 +16,7 @@
 
 use glam::DVec2;
 
-use super::GridIndex;
+use super::{GridIndex, TableError};
 
 /// Largest sub-cell table (entries of 8 bytes) one radius gets: 16 MiB.
 pub const MAX_SUB_CELLS: usize = 2 << 20;
@@ -69,23 +69,47 @@ pub struct NeighbourTable {
 }
 
 impl NeighbourTable {
-    /// Build the table for `radius`, or `None` when it would be too large.
+    /// Build the table for `radius`, giving up (with [`TableError::TooLarge`]) as soon
+    /// as it would take more than `max_bytes` (or more than [`MAX_SUB_CELLS`] sub-cells
+    /// and 16 million candidate entries whatever the budget), so that the time spent on a
+    /// table that is not kept stays bounded too.
     pub(super) fn build(
         grid: &GridIndex,
         positions: &[DVec2],
         ratios: &[f64],
         radius: f64,
-    ) -> Option<Self> {
+        max_bytes: usize,
+    ) -> Result<Self, TableError> {
+        let too_large = TableError::TooLarge {
+            radius,
+            limit: max_bytes,
+        };
+        if !(radius.is_finite() && radius > 0.0) {
+            return Err(TableError::BadRadius { radius });
+        }
         let step = grid.step();
-        let margin = (radius / step).ceil() as usize + 1;
+        let margin_f = (radius / step).ceil() + 1.0;
+        if margin_f > 1e6 {
+            return Err(too_large);
+        }
+        let margin = margin_f as usize;
         let (gx, gy) = grid.dims();
         let nx = gx + 2 * margin;
         let ny = gy + 2 * margin;
-        let cells = nx.checked_mul(ny)?;
+        let cells = nx.checked_mul(ny).ok_or(too_large)?;
         let shift = *SUB_SHIFTS
             .iter()
-            .find(|&&s| cells.saturating_mul(1 << (2 * s)) <= MAX_SUB_CELLS)?;
+            .find(|&&s| cells.saturating_mul(1 << (2 * s)) <= MAX_SUB_CELLS)
+            .ok_or(too_large)?;
         let sub_n = 1usize << shift;
+        // Sizes known before the candidate lists: sub-cells, offsets, points.
+        let fixed = cells * sub_n * sub_n * size_of::<SubCell>()
+            + (cells + 1) * size_of::<u32>()
+            + (positions.len() + 1) * size_of::<DVec2>();
+        if fixed > max_bytes {
+            return Err(too_large);
+        }
+        let max_entries = ((max_bytes - fixed) / size_of::<Candidate>()).min(MAX_ENTRIES);
         let origin = grid.origin() - DVec2::splat(margin as f64 * step);
         let r2 = radius * radius;
         let mut offsets = Vec::with_capacity(nx * ny + 1);
@@ -121,8 +145,8 @@ impl NeighbourTable {
                     position: positions[i as usize],
                     index: i,
                 }));
-                if candidates.len() > MAX_ENTRIES {
-                    return None;
+                if candidates.len() > max_entries {
+                    return Err(too_large);
                 }
             }
         }
@@ -130,7 +154,10 @@ impl NeighbourTable {
         // Resolve the sub-cells.
         let h = step / sub_n as f64;
         let snx = nx * sub_n;
-        let sentinel = u32::try_from(positions.len()).ok().filter(|&s| s < SCAN)?;
+        let sentinel = u32::try_from(positions.len())
+            .ok()
+            .filter(|&s| s < SCAN)
+            .ok_or(too_large)?;
         let mut sub = Vec::with_capacity(snx * ny * sub_n);
         let (lo_r2, hi_r2) = (
             (radius - MARGIN).max(0.0).powi(2),
@@ -168,7 +195,7 @@ impl NeighbourTable {
                 sub.push(SubCell { test, otherwise });
             }
         }
-        Some(Self {
+        Ok(Self {
             radius,
             r2,
             origin,
@@ -192,6 +219,23 @@ impl NeighbourTable {
     /// The radius this table answers for.
     pub fn radius(&self) -> f64 {
         self.radius
+    }
+
+    /// Bytes the table holds.
+    pub fn memory_bytes(&self) -> usize {
+        self.offsets.len() * size_of::<u32>()
+            + self.candidates.len() * size_of::<Candidate>()
+            + self.points.len() * size_of::<DVec2>()
+            + self.sub.len() * size_of::<SubCell>()
+    }
+
+    /// The longest candidate list of a cell: the most distance tests one query can make.
+    pub fn max_scan(&self) -> usize {
+        self.offsets
+            .windows(2)
+            .map(|w| (w[1] - w[0]) as usize)
+            .max()
+            .unwrap_or(0)
     }
 
     /// The location with the largest observation ratio strictly within the radius of

@@ -260,60 +260,156 @@ pub fn predict_into(
     params: &Params,
     out: BatchMut<'_>,
 ) -> Result<(), PredictError> {
-    params.validate()?;
-    let steps = params.steps();
-    let too_large = PredictError::TooLarge {
-        agents: agents.len(),
-        k: params.k,
-        steps,
-    };
-    let samples = agents
-        .len()
-        .checked_mul(params.k)
-        .ok_or(too_large.clone())?;
-    let need = samples.checked_mul(steps).ok_or(too_large)?;
-    if out.positions.len() != need || out.lens.len() != samples {
-        return Err(PredictError::Shape {
-            got: out.positions.len(),
-            got_lens: out.lens.len(),
-            need,
-            need_lens: samples,
-        });
+    Rollout::new(params)?.predict_agents(map, agents, out)
+}
+
+/// Which neighbour-table path a [`Rollout`] takes for CLiFF-LHMP map lookups.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Tables {
+    /// Build the radius's table on first use ([`CliffMap::lookup`]): the fastest
+    /// prediction, but the first call with a new radius pays for the build.
+    #[default]
+    Build,
+    /// Use the table if it is built, else the grid scan ([`CliffMap::cached_lookup`]):
+    /// never builds, so every call's cost is bounded by its size and the radius (for
+    /// servers, which build tables on another thread).
+    CachedOnly,
+}
+
+/// A prediction made in pieces: the call's random generator between chunks of agents.
+///
+/// [`predict_into`] is one `Rollout` over all agents. Cutting the agents into
+/// consecutive chunks and predicting them in order with the same `Rollout` gives the
+/// same bytes, since the generator draws for the agents in order; a server uses this
+/// to interleave a large request with others.
+///
+/// ```
+/// use cliff::map::CliffMap;
+/// use cliff::motion::State;
+/// use cliff::predict::{Params, Rollout, TrajectoryBatch, predict};
+/// use glam::DVec2;
+///
+/// let map = CliffMap::demo();
+/// let agents: Vec<State> = (0..4)
+///     .map(|i| State { position: DVec2::new(-10.0, 0.5 * i as f64), speed: 1.2, heading: 0.0, time: 0.0 })
+///     .collect();
+/// let params = Params { k: 5, horizon: 4.0, seed: 7, ..Params::default() };
+/// let mut whole = TrajectoryBatch::new();
+/// predict(&map, &agents, &params, &mut whole).unwrap();
+///
+/// let mut pieces = TrajectoryBatch::new();
+/// pieces.reshape(4, 5, params.steps());
+/// let mut rollout = Rollout::new(&params).unwrap();
+/// let per_agent = 5 * params.steps();
+/// let out = pieces.as_mut();
+/// let (p1, p2) = out.positions.split_at_mut(3 * per_agent);
+/// let (l1, l2) = out.lens.split_at_mut(3 * 5);
+/// use cliff::predict::BatchMut;
+/// rollout.predict_agents(&map, &agents[..3], BatchMut { positions: p1, lens: l1 }).unwrap();
+/// rollout.predict_agents(&map, &agents[3..], BatchMut { positions: p2, lens: l2 }).unwrap();
+/// assert_eq!(whole, pieces);
+/// ```
+#[derive(Debug, Clone)]
+pub struct Rollout {
+    params: Params,
+    tables: Tables,
+    rng: Xoshiro256PlusPlus,
+}
+
+impl Rollout {
+    /// A rollout of `params` (checked) whose generator is seeded from `params.seed`.
+    pub fn new(params: &Params) -> Result<Self, PredictError> {
+        params.validate()?;
+        Ok(Self {
+            params: *params,
+            tables: Tables::Build,
+            rng: Xoshiro256PlusPlus::seed_from_u64(params.seed),
+        })
     }
-    if let Some(i) = agents.iter().position(|s| {
-        !(s.position.is_finite() && s.speed.is_finite() && s.heading.is_finite() && s.speed >= 0.0)
-    }) {
-        return Err(PredictError::State(i));
+
+    /// The same rollout with another neighbour-table path.
+    pub fn with_tables(mut self, tables: Tables) -> Self {
+        self.tables = tables;
+        self
     }
-    let mut rng = Xoshiro256PlusPlus::seed_from_u64(params.seed);
-    if steps == 0 {
-        out.lens.fill(0);
-        return Ok(());
+
+    /// The parameters.
+    pub fn params(&self) -> &Params {
+        &self.params
     }
-    match params.method {
-        Method::Cvm => {
-            for ((positions, lens), state) in out
-                .positions
-                .chunks_exact_mut(params.k * steps)
-                .zip(out.lens.chunks_exact_mut(params.k))
-                .zip(agents)
-            {
-                for (track, len) in positions.chunks_exact_mut(steps).zip(lens) {
-                    roll_cvm(state, params.dt, track);
-                    *len = steps as u32;
+
+    /// Predict the next `agents` (after those of earlier calls) into `out`, shaped as
+    /// [`predict_into`] needs for these agents alone.
+    pub fn predict_agents(
+        &mut self,
+        map: &CliffMap,
+        agents: &[State],
+        out: BatchMut<'_>,
+    ) -> Result<(), PredictError> {
+        let params = &self.params;
+        let steps = params.steps();
+        let too_large = PredictError::TooLarge {
+            agents: agents.len(),
+            k: params.k,
+            steps,
+        };
+        let samples = agents
+            .len()
+            .checked_mul(params.k)
+            .ok_or(too_large.clone())?;
+        let need = samples.checked_mul(steps).ok_or(too_large)?;
+        if out.positions.len() != need || out.lens.len() != samples {
+            return Err(PredictError::Shape {
+                got: out.positions.len(),
+                got_lens: out.lens.len(),
+                need,
+                need_lens: samples,
+            });
+        }
+        if let Some(i) = agents.iter().position(|s| {
+            !(s.position.is_finite()
+                && s.speed.is_finite()
+                && s.heading.is_finite()
+                && s.speed >= 0.0)
+        }) {
+            return Err(PredictError::State(i));
+        }
+        if steps == 0 {
+            out.lens.fill(0);
+            return Ok(());
+        }
+        let rng = &mut self.rng;
+        match params.method {
+            Method::Cvm => {
+                for ((positions, lens), state) in out
+                    .positions
+                    .chunks_exact_mut(params.k * steps)
+                    .zip(out.lens.chunks_exact_mut(params.k))
+                    .zip(agents)
+                {
+                    for (track, len) in positions.chunks_exact_mut(steps).zip(lens) {
+                        roll_cvm(state, params.dt, track);
+                        *len = steps as u32;
+                    }
+                }
+            }
+            Method::Cliff => {
+                let lookup = match self.tables {
+                    Tables::Build => map.lookup(params.radius),
+                    Tables::CachedOnly => map.cached_lookup(params.radius),
+                };
+                match lookup {
+                    Lookup::Table(t) => {
+                        roll_cliff_all(map, agents, params, rng, out, |p| t.best_near(p))
+                    }
+                    Lookup::Grid(m, r) => {
+                        roll_cliff_all(map, agents, params, rng, out, |p| m.best_near(p, r))
+                    }
                 }
             }
         }
-        Method::Cliff => match map.lookup(params.radius) {
-            Lookup::Table(t) => {
-                roll_cliff_all(map, agents, params, &mut rng, out, |p| t.best_near(p))
-            }
-            Lookup::Grid(m, r) => {
-                roll_cliff_all(map, agents, params, &mut rng, out, |p| m.best_near(p, r))
-            }
-        },
+        Ok(())
     }
-    Ok(())
 }
 
 /// Roll every CLiFF-LHMP sample of every agent; `near` finds the sampling location
