@@ -181,8 +181,8 @@ fn evaluation_is_reproducible_and_seed_dependent() {
 
 /// horizon in whole seconds -> (method, people, ADE, FDE) rows of the ATC reference table.
 fn atc_reference() -> HashMap<(String, u32), (f64, f64, f64)> {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../shared/docs/reference-parity-atc-dev.csv");
+    let path =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/docs/reference-parity-atc-dev.csv");
     let text = std::fs::read_to_string(path).unwrap();
     let mut lines = text.lines();
     let header: Vec<&str> = lines.next().unwrap().split(',').collect();

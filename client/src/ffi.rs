@@ -180,7 +180,7 @@ pub extern "C" fn cliff_last_error() -> *const c_char {
 /// The name of a status code (`"unknown-map"`, ...); a static string.
 #[unsafe(no_mangle)]
 pub extern "C" fn cliff_status_name(status: u32) -> *const c_char {
-    const NAMES: [&CStr; 16] = [
+    const NAMES: [&CStr; 17] = [
         c"ok",
         c"bad-version",
         c"unknown-map",
@@ -197,6 +197,7 @@ pub extern "C" fn cliff_status_name(status: u32) -> *const c_char {
         c"unknown-kind",
         c"reload-failed",
         c"internal",
+        c"radius-too-large",
     ];
     match Status::from_code(status) {
         Some(s) => NAMES[s.code() as usize].as_ptr(),

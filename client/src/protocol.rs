@@ -302,6 +302,9 @@ pub enum Status {
     ReloadFailed = 14,
     /// The daemon could not build the response (shared memory exhausted); retry.
     Internal = 15,
+    /// The sampling radius is above the daemon's limit for the map (the limit is sent in
+    /// millimetres; the default limit is four grid steps of the map).
+    RadiusTooLarge = 16,
 }
 
 impl Status {
@@ -325,6 +328,7 @@ impl Status {
             13 => UnknownKind,
             14 => ReloadFailed,
             15 => Internal,
+            16 => RadiusTooLarge,
             _ => return None,
         })
     }
@@ -354,6 +358,7 @@ impl Status {
             UnknownKind => "unknown-kind",
             ReloadFailed => "reload-failed",
             Internal => "internal",
+            RadiusTooLarge => "radius-too-large",
         }
     }
 }
@@ -461,7 +466,8 @@ pub struct Rejection {
     pub row: Option<u32>,
     /// The value concerned.
     pub field: Field,
-    /// The limit that was exceeded (0 when none).
+    /// The limit that was exceeded (0 when none; millimetres for
+    /// [`Status::RadiusTooLarge`]).
     pub limit: u32,
 }
 
@@ -539,6 +545,9 @@ impl fmt::Display for Rejection {
         }
         if self.limit > 0 {
             write!(f, ", limit {}", self.limit)?;
+            if self.status == Status::RadiusTooLarge {
+                f.write_str(" mm")?;
+            }
         }
         Ok(())
     }
@@ -986,10 +995,16 @@ mod tests {
         r.write_to(&mut h);
         assert_eq!(Rejection::from_header(&h), Some(r));
         assert_eq!(r.to_string(), "non-finite (time) at agent 3 row 7");
-        for c in 0..16 {
-            assert_eq!(Status::from_code(c).unwrap().code(), c);
+        for c in 0..17 {
+            let s = Status::from_code(c).unwrap();
+            assert_eq!(s.code(), c);
+            // the C ABI names every status as the Rust side does
+            let name = unsafe { std::ffi::CStr::from_ptr(crate::ffi::cliff_status_name(c)) };
+            assert_eq!(name.to_str().unwrap(), s.name());
         }
-        assert_eq!(Status::from_code(16), None);
+        assert_eq!(Status::from_code(17), None);
+        let r = Rejection::over(Status::RadiusTooLarge, Field::Radius, 2000);
+        assert_eq!(r.to_string(), "radius-too-large (radius), limit 2000 mm");
     }
 
     #[test]

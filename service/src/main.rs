@@ -9,7 +9,9 @@ use std::time::Duration;
 
 use clap::Parser;
 use cliff_client::protocol::{Limits, MAX_HISTORY};
-use cliff_service::{Daemon, MapSpec, Settings};
+use cliff_service::{
+    DEFAULT_CHUNK_POSITIONS, DEFAULT_TABLE_BUDGET, Daemon, MapSpec, Settings, available_cores,
+};
 
 /// cliffd: serves CLiFF-LHMP human motion predictions over iceoryx2 shared memory.
 ///
@@ -54,6 +56,35 @@ struct Args {
     #[arg(long, default_value_t = MAX_HISTORY)]
     max_history: u32,
 
+    /// Largest sampling radius (m) a request may use, for every map. Default: 4 grid
+    /// steps of each map (2 m on a 0.5 m grid; the paper uses up to 3 m on a 1 m grid).
+    /// A lookup's work grows with the radius squared; larger radii are refused with the
+    /// status radius-too-large and the limit in millimetres.
+    #[arg(long, value_name = "METRES")]
+    max_radius: Option<f64>,
+
+    /// Sampling radii (m) whose neighbour tables are built when a map loads or reloads
+    /// (comma-separated; those above a map's radius limit are skipped). Other radii are
+    /// served by the grid scan until a background thread has built their table.
+    #[arg(
+        long,
+        value_name = "METRES",
+        value_delimiter = ',',
+        default_value = "0.7071,0.5,1"
+    )]
+    table_radii: Vec<f64>,
+
+    /// Memory (MiB) the neighbour tables of one map may take together; the least
+    /// recently used tables of radii not in --table-radii are evicted to stay within it.
+    #[arg(long, value_name = "MIB", default_value_t = DEFAULT_TABLE_BUDGET >> 20)]
+    table_budget_mib: usize,
+
+    /// Predicted positions per chunk: a large request is cut into chunks of whole
+    /// agents that take turns with other requests, so a small request never waits
+    /// behind a large one for longer than about one chunk (8192 positions: about 0.2 ms).
+    #[arg(long, value_name = "POSITIONS", default_value_t = DEFAULT_CHUNK_POSITIONS)]
+    chunk_positions: usize,
+
     /// Most clients connected at once (each Client object, C client or cliff-bench
     /// thread is one).
     #[arg(long, default_value_t = Settings::default().max_clients)]
@@ -69,10 +100,10 @@ struct Args {
     #[arg(long, default_value_t = 1000)]
     idle_spin_us: u64,
 
-    /// Threads that predict requests arriving together (from several clients) in
-    /// parallel. 1: the serving thread does everything (lowest CPU use); more raise
-    /// throughput with many clients on a multi-core host.
-    #[arg(long, default_value_t = 1)]
+    /// Threads that predict chunks of different requests (from several clients) in
+    /// parallel; the serving thread is one of them. Default: the number of cores.
+    /// 1: the serving thread does everything (lowest CPU use).
+    #[arg(long, default_value_t = available_cores())]
     workers: usize,
 
     /// Milliseconds between sweeps that remove the resources of dead clients (killed
@@ -129,6 +160,10 @@ fn main() -> ExitCode {
             max_steps: args.max_steps,
             max_history: args.max_history,
         },
+        max_radius: args.max_radius,
+        table_radii: args.table_radii,
+        table_budget: args.table_budget_mib.saturating_mul(1 << 20),
+        chunk_positions: args.chunk_positions,
         max_clients: args.max_clients,
         max_active_requests: args.max_active_requests,
         idle_spin: Duration::from_micros(args.idle_spin_us),

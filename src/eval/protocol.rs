@@ -91,7 +91,6 @@ impl Settings {
     pub fn obs_rows(&self) -> usize {
         (self.obs / self.dt).round().max(1.0) as usize
     }
-
 }
 
 /// Rows of the reference protocol's idle window: the published code compares row `i`

@@ -319,11 +319,17 @@ mod tests {
         assert_eq!(map.table_stats().radii, vec![0.6, 0.7]);
         // using 0.6 makes 0.7 the next victim
         assert!(map.cached_lookup(0.6).max_tests() > 0);
-        assert!(matches!(map.cached_lookup(0.6), crate::map::Lookup::Table(_)));
+        assert!(matches!(
+            map.cached_lookup(0.6),
+            crate::map::Lookup::Table(_)
+        ));
         map.build_table(0.8, false).unwrap();
         assert_eq!(map.table_stats().radii, vec![0.6, 0.8]);
         // a radius without a table is answered by the grid scan, without building
-        assert!(matches!(map.cached_lookup(0.5), crate::map::Lookup::Grid(..)));
+        assert!(matches!(
+            map.cached_lookup(0.5),
+            crate::map::Lookup::Grid(..)
+        ));
         assert_eq!(map.table_stats().radii, vec![0.6, 0.8]);
     }
 

@@ -1,0 +1,474 @@
+//! Requests in progress, cut into chunks that take turns.
+//!
+//! An accepted request becomes a task: its map, its decoded agents, a
+//! [`Rollout`] (the request's generator between chunks) and its output buffer (a
+//! loaned shared-memory response, or any buffer of `u32` words laid out as the protocol's
+//! payload). The serving loop runs *rounds*: each round takes tasks from the front of
+//! the queue, one chunk of whole agents each (about [`Settings::chunk_positions`]
+//! predicted positions), until the round holds `chunk_positions x workers` positions;
+//! the round's chunks run in parallel on the workers; tasks with agents left go to the
+//! back of the queue, and new tasks join at its front. So a small request waits behind
+//! at most one round of chunks (about 0.2 ms of work per worker), however large the
+//! other requests are, and large requests share the daemon evenly.
+//!
+//! Chunks of one task run in order, so the generator draws exactly as in one call:
+//! the same request and seed give the same bytes as [`cliff::predict::predict_into`].
+//!
+//! [`Settings::chunk_positions`]: crate::Settings::chunk_positions
+
+use std::collections::VecDeque;
+use std::sync::Arc;
+
+use cliff::map::{CliffMap, Lookup};
+use cliff::motion::State;
+use cliff::predict::{BatchMut, Method, Params, Point, Rollout, Tables};
+use cliff_client::protocol::{DecodeScratch, Limits, RequestHeader};
+use rayon::prelude::*;
+use tracing::error;
+
+/// A task's output: the response payload, `agents x k x steps x 2` position words
+/// then `agents x k` lengths.
+pub(crate) trait Output {
+    /// The payload words.
+    fn words(&mut self) -> &mut [u32];
+}
+
+impl Output for Vec<u32> {
+    fn words(&mut self) -> &mut [u32] {
+        self
+    }
+}
+
+/// Positions a round must hold before it is split over the workers: waking a sleeping
+/// worker costs tens of microseconds, about a thousand positions' work.
+const PARALLEL_MIN_POSITIONS: usize = 4000;
+
+/// A grid-scan lookup tests up to this many locations per eighth of a table lookup's
+/// cost (measured: a table lookup costs about as much as eight grid cells).
+const GRID_TESTS_PER_UNIT: usize = 8;
+
+/// An accepted request in progress.
+struct Task {
+    map: Arc<CliffMap>,
+    params: Params,
+    rollout: Rollout,
+    agents: usize,
+    next: usize,
+    /// Agents per chunk.
+    chunk: usize,
+    ok: bool,
+}
+
+/// A request slot: decoding buffers, then the task and its output.
+pub(crate) struct Slot<O> {
+    /// The request's header.
+    pub header: RequestHeader,
+    /// The decoded agents.
+    pub scratch: DecodeScratch,
+    task: Option<Task>,
+    output: Option<O>,
+}
+
+/// A finished request.
+pub(crate) struct Finished<'a, O> {
+    pub header: &'a RequestHeader,
+    pub params: &'a Params,
+    pub agents: usize,
+    pub output: O,
+    /// False when the prediction failed (a bug: decoding checks what it checks).
+    pub ok: bool,
+}
+
+/// Requests in progress and the workers that predict them.
+pub(crate) struct Scheduler<O> {
+    slots: Vec<Slot<O>>,
+    free: Vec<usize>,
+    queue: VecDeque<usize>,
+    round: Vec<usize>,
+    done: Vec<usize>,
+    jobs: Vec<Chunk<'static>>,
+    pool: Option<rayon::ThreadPool>,
+    workers: usize,
+    chunk_positions: usize,
+    /// Chunks run in parallel with others (counter).
+    pub parallel_chunks: u64,
+}
+
+impl<O: Output> Scheduler<O> {
+    /// `capacity` requests at once, each within `limits`.
+    pub fn new(
+        capacity: usize,
+        limits: &Limits,
+        workers: usize,
+        chunk_positions: usize,
+    ) -> Result<Self, String> {
+        let pool = if workers > 1 {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(workers)
+                .use_current_thread()
+                .thread_name(|i| format!("cliffd-worker-{i}"))
+                .build()
+                .map_err(|e| format!("cannot start the workers: {e}"))?;
+            Some(pool)
+        } else {
+            None
+        };
+        Ok(Self {
+            slots: (0..capacity)
+                .map(|_| Slot {
+                    header: RequestHeader::default(),
+                    scratch: DecodeScratch::new(limits),
+                    task: None,
+                    output: None,
+                })
+                .collect(),
+            free: (0..capacity).rev().collect(),
+            queue: VecDeque::with_capacity(capacity),
+            round: Vec::with_capacity(capacity),
+            done: Vec::with_capacity(capacity),
+            jobs: Vec::with_capacity(capacity),
+            pool,
+            workers,
+            chunk_positions,
+            parallel_chunks: 0,
+        })
+    }
+
+    /// The slot the next request decodes into, or `None` when every slot is busy.
+    #[inline]
+    pub fn free_slot(&mut self) -> Option<&mut Slot<O>> {
+        let i = *self.free.last()?;
+        Some(&mut self.slots[i])
+    }
+
+    /// True while tasks wait for chunks.
+    #[inline]
+    pub fn busy(&self) -> bool {
+        !self.queue.is_empty()
+    }
+
+    /// Requests in progress.
+    #[cfg(test)]
+    pub fn in_progress(&self) -> usize {
+        self.queue.len()
+    }
+
+    /// Accept the request decoded into [`free_slot`](Self::free_slot): its agents are in
+    /// the slot's scratch, `output` holds the payload for `params` and them.
+    pub fn admit(&mut self, map: Arc<CliffMap>, params: &Params, output: O) {
+        let Some(i) = self.free.pop() else {
+            debug_assert!(false, "admit without a free slot");
+            return;
+        };
+        let slot = &mut self.slots[i];
+        let agents = slot.scratch.states().len();
+        let per_agent = params.k * params.steps();
+        // Grid-scan lookups cost more per position than a table's.
+        let weight = match (params.method, map.cached_lookup(params.radius)) {
+            (Method::Cliff, l @ Lookup::Grid(..)) => 1 + l.max_tests() / GRID_TESTS_PER_UNIT,
+            _ => 1,
+        };
+        let chunk = (self.chunk_positions / per_agent.saturating_mul(weight).max(1)).max(1);
+        // Decoding checked the parameters, so the rollout cannot fail; if it did, the
+        // request is answered as an internal error.
+        let (rollout, ok) = match Rollout::new(params) {
+            Ok(r) => (r.with_tables(Tables::CachedOnly), true),
+            Err(e) => {
+                error!("request parameters passed decoding but not the predictor: {e}");
+                (
+                    Rollout::new(&Params::default()).expect("valid defaults"),
+                    false,
+                )
+            }
+        };
+        slot.task = Some(Task {
+            map,
+            params: *params,
+            rollout,
+            agents,
+            next: 0,
+            chunk,
+            ok,
+        });
+        slot.output = Some(output);
+        if ok {
+            self.queue.push_front(i);
+        } else {
+            self.done.push(i);
+        }
+    }
+
+    /// Run one round of chunks; returns the positions predicted.
+    pub fn run_round(&mut self) -> usize {
+        let budget = self.chunk_positions * self.workers;
+        let mut positions = 0;
+        while let Some(&i) = self.queue.front() {
+            let t = self.slots[i]
+                .task
+                .as_ref()
+                .expect("queued slots hold a task");
+            let n = t.chunk.min(t.agents - t.next);
+            let p = n * t.params.k * t.params.steps();
+            if !self.round.is_empty() && positions + p > budget {
+                break;
+            }
+            self.queue.pop_front();
+            self.round.push(i);
+            positions += p;
+        }
+        if self.round.is_empty() {
+            return 0;
+        }
+        // Collect the round's chunks (disjoint slots: one mutable borrow each).
+        let mut jobs = recycle(std::mem::take(&mut self.jobs));
+        {
+            let round = &self.round;
+            for (i, slot) in self.slots.iter_mut().enumerate() {
+                if !round.contains(&i) {
+                    continue;
+                }
+                let (Some(task), Some(out)) = (slot.task.as_mut(), slot.output.as_mut()) else {
+                    continue;
+                };
+                jobs.push(Chunk::new(task, slot.scratch.states(), out.words()));
+            }
+        }
+        match &self.pool {
+            Some(pool) if jobs.len() > 1 && positions >= PARALLEL_MIN_POSITIONS => {
+                self.parallel_chunks += jobs.len() as u64;
+                pool.install(|| jobs.par_iter_mut().for_each(|j| j.run()));
+            }
+            _ => jobs.iter_mut().for_each(|j| j.run()),
+        }
+        self.jobs = recycle(jobs);
+        // Requeue what has agents left; collect what is done.
+        for &i in &self.round {
+            let t = self.slots[i]
+                .task
+                .as_ref()
+                .expect("round slots hold a task");
+            if t.ok && t.next < t.agents {
+                self.queue.push_back(i);
+            } else {
+                self.done.push(i);
+            }
+        }
+        self.round.clear();
+        positions
+    }
+
+    /// Hand every finished request to `f` and free its slot.
+    pub fn take_finished(&mut self, mut f: impl FnMut(Finished<'_, O>)) {
+        while let Some(i) = self.done.pop() {
+            let slot = &mut self.slots[i];
+            let (Some(task), Some(output)) = (slot.task.take(), slot.output.take()) else {
+                continue;
+            };
+            f(Finished {
+                header: &slot.header,
+                params: &task.params,
+                agents: task.agents,
+                output,
+                ok: task.ok,
+            });
+            self.free.push(i);
+        }
+    }
+}
+
+/// One chunk of a task: its next agents and where their samples go.
+struct Chunk<'a> {
+    map: &'a CliffMap,
+    rollout: &'a mut Rollout,
+    states: &'a [State],
+    positions: &'a mut [Point],
+    lens: &'a mut [u32],
+    next: &'a mut usize,
+    ok: &'a mut bool,
+}
+
+impl<'a> Chunk<'a> {
+    fn new(task: &'a mut Task, states: &'a [State], words: &'a mut [u32]) -> Self {
+        let (k, steps) = (task.params.k, task.params.steps());
+        let n = task.chunk.min(task.agents - task.next);
+        let (a, b) = (task.next, task.next + n);
+        let (pos_words, lens) = words.split_at_mut(task.agents * k * steps * 2);
+        let positions: &mut [Point] = bytemuck::cast_slice_mut(pos_words);
+        Chunk {
+            map: &task.map,
+            rollout: &mut task.rollout,
+            states: &states[a..b],
+            positions: &mut positions[a * k * steps..b * k * steps],
+            lens: &mut lens[a * k..b * k],
+            next: &mut task.next,
+            ok: &mut task.ok,
+        }
+    }
+
+    fn run(&mut self) {
+        let out = BatchMut {
+            positions: &mut *self.positions,
+            lens: &mut *self.lens,
+        };
+        match self.rollout.predict_agents(self.map, self.states, out) {
+            Ok(()) => *self.next += self.states.len(),
+            Err(e) => {
+                error!("prediction failed: {e}");
+                *self.ok = false;
+            }
+        }
+    }
+}
+
+/// Reuse a vector's memory for elements of another lifetime (it is empty in between),
+/// so that a round builds its chunk list without allocating.
+fn recycle<'b>(mut v: Vec<Chunk<'_>>) -> Vec<Chunk<'b>> {
+    v.clear();
+    // collecting an emptied vector's iterator in place keeps the allocation (same layout)
+    v.into_iter().map(|_| unreachable!()).collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use cliff::predict::{TrajectoryBatch, predict};
+    use cliff_client::protocol::payload_words;
+    use cliff::glam::DVec2;
+
+    use super::*;
+
+    #[test]
+    fn recycled_chunk_vectors_keep_their_memory() {
+        let v: Vec<Chunk<'static>> = Vec::with_capacity(16);
+        let ptr = v.as_ptr() as usize;
+        let w: Vec<Chunk<'_>> = recycle(v);
+        assert_eq!((w.capacity(), w.as_ptr() as usize), (16, ptr));
+        let back: Vec<Chunk<'static>> = recycle(w);
+        assert_eq!((back.capacity(), back.as_ptr() as usize), (16, ptr));
+    }
+
+    fn walkers(n: usize) -> Vec<State> {
+        (0..n)
+            .map(|i| State {
+                position: DVec2::new(-12.0 + 0.3 * i as f64, -1.0 + 0.1 * i as f64),
+                speed: 1.1,
+                heading: 0.05 * i as f64,
+                time: 0.0,
+            })
+            .collect()
+    }
+
+    /// Decode and admit a request of `agents` walkers, as the serving loop does.
+    fn admit(
+        s: &mut Scheduler<Vec<u32>>,
+        map: &Arc<CliffMap>,
+        agents: usize,
+        params: &Params,
+    ) -> Vec<State> {
+        let mut request = cliff_client::Request::new("demo", params).unwrap();
+        for w in walkers(agents) {
+            request.add_agent([cliff_client::Observation::with_velocity(
+                0.0,
+                w.position.x,
+                w.position.y,
+                w.speed,
+                w.heading,
+            )]);
+        }
+        let slot = s.free_slot().expect("room");
+        slot.header = *request.header();
+        let decoded = cliff_client::protocol::decode_request(
+            &slot.header,
+            request.rows(),
+            &Limits::default(),
+            &mut slot.scratch,
+        )
+        .unwrap();
+        assert_eq!(&decoded, params);
+        let states = slot.scratch.states().to_vec();
+        let out = vec![0u32; payload_words(agents, params.k, params.steps())];
+        s.admit(map.clone(), params, out);
+        states
+    }
+
+    /// The payload words of a batch (positions' bits, then lengths): NaN-safe equality.
+    fn words_of(b: &TrajectoryBatch) -> Vec<u32> {
+        let mut w: Vec<u32> = bytemuck::cast_slice(b.positions()).to_vec();
+        w.extend_from_slice(b.lens());
+        w
+    }
+
+    #[test]
+    fn chunked_requests_give_the_bytes_of_one_call_and_small_ones_finish_first() {
+        let map = Arc::new(CliffMap::demo());
+        let big = Params {
+            k: 20,
+            horizon: 12.0,
+            seed: 11,
+            ..Params::default()
+        };
+        let small = Params { seed: 5, ..big };
+        // chunks of 2 agents (1200 positions): the big request needs 10 rounds
+        let mut s = Scheduler::<Vec<u32>>::new(4, &Limits::default(), 2, 1200).unwrap();
+        let big_states = admit(&mut s, &map, 20, &big);
+        let mut small_states = Vec::new();
+        let mut finished = Vec::new();
+        let mut rounds = 0;
+        while s.busy() {
+            if rounds == 3 {
+                small_states = admit(&mut s, &map, 1, &small);
+            }
+            s.run_round();
+            rounds += 1;
+            s.take_finished(|f| {
+                assert!(f.ok);
+                finished.push((rounds, f.agents, f.output.clone(), *f.params));
+            });
+        }
+        // the small one, admitted after round 3, finished in round 4
+        assert_eq!(
+            finished.iter().map(|f| (f.0, f.1)).collect::<Vec<_>>(),
+            vec![(4, 1), (10, 20)]
+        );
+        for (_, agents, words, params) in &finished {
+            let states = if *agents == 1 {
+                &small_states
+            } else {
+                &big_states
+            };
+            let mut whole = TrajectoryBatch::new();
+            predict(&map, states, params, &mut whole).unwrap();
+            assert!(words == &words_of(&whole), "{agents} agents differ");
+        }
+    }
+
+    #[test]
+    fn a_round_shares_its_budget_and_every_task_progresses() {
+        let map = Arc::new(CliffMap::demo());
+        let p = Params {
+            k: 10,
+            horizon: 4.0,
+            ..Params::default()
+        }; // 100 positions per agent
+        let mut s = Scheduler::<Vec<u32>>::new(4, &Limits::default(), 2, 300).unwrap();
+        for _ in 0..3 {
+            admit(&mut s, &map, 9, &p); // 3 chunks of 3 agents each
+        }
+        // budget of 2 workers: two chunks (600 positions) per round
+        assert_eq!(s.run_round(), 600);
+        assert_eq!(s.run_round(), 600);
+        assert_eq!(s.in_progress(), 3);
+        let mut n = 0;
+        while s.busy() {
+            s.run_round();
+            s.take_finished(|f| {
+                assert!(f.ok && f.agents == 9);
+                n += 1
+            });
+        }
+        assert_eq!(n, 3);
+        assert!(
+            s.parallel_chunks == 0,
+            "rounds under the threshold run serially"
+        );
+    }
+}
