@@ -10,7 +10,8 @@ use std::time::Duration;
 use clap::Parser;
 use cliff_client::protocol::{Limits, MAX_HISTORY};
 use cliff_service::{
-    DEFAULT_CHUNK_POSITIONS, DEFAULT_TABLE_BUDGET, Daemon, MapSpec, Settings, available_cores,
+    DEFAULT_CHUNK_POSITIONS, DEFAULT_TABLE_BUDGET, DEFAULT_TABLE_RADII, Daemon, MapSpec, Settings,
+    available_cores,
 };
 
 /// cliffd: serves CLiFF-LHMP human motion predictions over iceoryx2 shared memory.
@@ -70,7 +71,7 @@ struct Args {
         long,
         value_name = "METRES",
         value_delimiter = ',',
-        default_value = "0.7071,0.5,1"
+        default_values_t = DEFAULT_TABLE_RADII
     )]
     table_radii: Vec<f64>,
 

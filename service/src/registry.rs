@@ -401,16 +401,16 @@ mod tests {
 
     #[test]
     fn maps_load_with_their_limits_and_pinned_tables() {
-        let r = Registry::load(&[], policy(None, &[0.5, 0.7071, 100.0])).unwrap();
+        let r = Registry::load(&[], policy(None, &[0.5, 0.75, 100.0])).unwrap();
         let demo = &r.entries()[0];
         assert_eq!(demo.name, "demo");
         let step = demo.map.grid().step();
         assert_eq!(demo.max_radius, 4.0 * step);
         // radii within the limit get a table at load; 100 m is over it
         let stats = demo.map.table_stats();
-        assert_eq!(stats.radii, vec![0.5, 0.7071]);
+        assert_eq!(stats.radii, vec![0.5, 0.75]);
         assert_eq!(demo.max_radius_mm(), (4000.0 * step) as u32);
-        let r = Registry::load(&[], policy(Some(0.6), &[0.5, 0.7071])).unwrap();
+        let r = Registry::load(&[], policy(Some(0.6), &[0.5, 0.75])).unwrap();
         assert_eq!(r.entries()[0].map.table_stats().radii, vec![0.5]);
     }
 

@@ -330,9 +330,9 @@ fn recycle<'b>(mut v: Vec<Chunk<'_>>) -> Vec<Chunk<'b>> {
 
 #[cfg(test)]
 mod tests {
+    use cliff::glam::DVec2;
     use cliff::predict::{TrajectoryBatch, predict};
     use cliff_client::protocol::payload_words;
-    use cliff::glam::DVec2;
 
     use super::*;
 

@@ -37,9 +37,10 @@ impl std::str::FromStr for MapSpec {
 pub const RADIUS_LIMIT_STEPS: f64 = 4.0;
 
 /// Sampling radii whose neighbour tables are built when a map loads (those within the
-/// map's radius limit): the paper's THÖR radius `sqrt(0.5)` (the clients' default),
-/// 0.5 m and the ATC radius 1 m.
-pub const DEFAULT_TABLE_RADII: [f64; 3] = [std::f64::consts::FRAC_1_SQRT_2, 0.5, 1.0];
+/// map's radius limit): the paper's THÖR radius `sqrt(0.5)` (the clients' default) and
+/// its rounding 0.7071 (the command line's), 0.5 m, and the ATC radius 1 m.
+#[allow(clippy::approx_constant)]
+pub const DEFAULT_TABLE_RADII: [f64; 4] = [std::f64::consts::FRAC_1_SQRT_2, 0.7071, 0.5, 1.0];
 
 /// Memory the neighbour tables of one map may take together, unless set: 64 MiB.
 pub const DEFAULT_TABLE_BUDGET: usize = 64 << 20;
@@ -212,7 +213,7 @@ mod tests {
         let bad = |f: &dyn Fn(&mut Settings)| {
             let mut s = Settings::default();
             f(&mut s);
-            s.check().err().expect("refused").to_string()
+            s.check().expect_err("refused").to_string()
         };
         assert!(bad(&|s| s.limits.max_k = 0).contains("at least 1"));
         assert!(bad(&|s| s.limits.max_history = 65).contains("max history"));

@@ -135,7 +135,7 @@ impl GridIndex {
     /// location per cell, capped by the grid's size.
     pub fn max_candidates(&self, radius: f64) -> usize {
         let r = radius / self.step + ON_GRID_TOLERANCE;
-        if !(r >= 0.0) {
+        if r.is_nan() || r < 0.0 {
             return 0;
         }
         let side = |n: usize| ((2.0 * r).floor() + 1.0).min(n as f64) as usize;
