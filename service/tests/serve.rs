@@ -3,7 +3,7 @@
 mod common;
 
 use cliff::map::CliffMap;
-use cliff::predict::Method;
+use cliff::predict::{Method, Params};
 use cliff_client::WaitMode;
 use common::*;
 
@@ -147,6 +147,7 @@ fn every_kind_of_bad_request_gets_its_status_and_the_daemon_keeps_serving() {
     let mut client = ns.connect(WaitMode::Hybrid);
     let mut bystander = ns.connect(WaitMode::Spin);
     let map = CliffMap::demo();
+    let step = map.grid().step();
     type Case = (
         &'static str,
         Box<dyn Fn(&mut RequestHeader, &mut Vec<Observation>)>,
@@ -213,6 +214,18 @@ fn every_kind_of_bad_request_gets_its_status_and_the_daemon_keeps_serving() {
             Box::new(|h, _| h.radius = -1.0),
             Status::BadValue,
             None,
+        ),
+        (
+            "radius over the map's limit (4 grid steps)",
+            Box::new(move |h, _| h.radius = 4.0 * step + 0.01),
+            Status::RadiusTooLarge,
+            Some((4000.0 * step) as u32),
+        ),
+        (
+            "radius far over the limit",
+            Box::new(|h, _| h.radius = 150.0),
+            Status::RadiusTooLarge,
+            Some((4000.0 * step) as u32),
         ),
         ("k zero", Box::new(|h, _| h.k = 0), Status::BadK, Some(10)),
         (
@@ -468,4 +481,53 @@ fn random_garbage_requests_are_answered_and_never_stop_the_daemon() {
         local_bits(&CliffMap::demo(), &req)
     );
     assert!(daemon.child.try_wait().unwrap().is_none());
+}
+
+#[test]
+fn the_largest_requests_run_in_chunks_with_the_bytes_of_one_call_beside_small_ones() {
+    let ns = Namespace::new("chunks");
+    let _daemon = Daemon::start(&ns, &["--chunk-positions", "5000"]);
+    let map = CliffMap::demo();
+    // small requests from another client, all the while
+    let stop = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+    let small = {
+        let (stop, map) = (stop.clone(), map.clone());
+        let mut client = ns.connect(WaitMode::Hybrid);
+        std::thread::spawn(move || {
+            let mut n = 0u64;
+            while !stop.load(std::sync::atomic::Ordering::Relaxed) || n < 20 {
+                let req = demo_request(n, 1, 20, Method::Cliff);
+                let want = local_bits(&map, &req);
+                let p = client.predict(&req).expect("small request served");
+                assert_eq!((p.shape(), bits(p.positions(), p.lens())), want);
+                n += 1;
+            }
+            n
+        })
+    };
+    let mut client = ns.options(WaitMode::Hybrid);
+    client.deadline = Duration::from_secs(10);
+    let mut client = cliff_client::Client::connect_with(SERVICE, client).unwrap();
+    // the default limits' largest request: 32 agents x 50 samples x 100 steps, with a
+    // radius that has no table yet (grid scan, then the table built in the background)
+    for (i, radius) in [(0, 0.9), (1, 0.9), (2, std::f64::consts::FRAC_1_SQRT_2)] {
+        let mut req = demo_request(50 + i, 32, 50, Method::Cliff);
+        req.set_params(&Params {
+            k: 50,
+            horizon: 40.0,
+            radius,
+            seed: 77 + i,
+            ..Params::default()
+        });
+        let want = local_bits(&map, &req);
+        let p = client.predict(&req).expect("largest request served");
+        assert_eq!(p.shape(), (32, 50, 100));
+        assert_eq!(
+            (p.shape(), bits(p.positions(), p.lens())),
+            want,
+            "request {i}"
+        );
+    }
+    stop.store(true, std::sync::atomic::Ordering::Relaxed);
+    assert!(small.join().unwrap() >= 20);
 }
