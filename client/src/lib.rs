@@ -122,6 +122,10 @@ pub enum WaitMode {
     /// say how long it stays awake; other clients' requests may have kept it awake
     /// since, which this client cannot see), sleep at once: the daemon has to be woken
     /// first, and a spinning client only delays that on a busy or virtualised host.
+    /// Likewise when the daemon had other requests in progress at its last response
+    /// ([`ResponseHeader::busy`]): with clients queueing, spinning clients take the
+    /// cores the daemon needs (four spinning clients on two cores cost it a third of
+    /// its throughput), and a response that has to wait for others is not worth a spin.
     #[default]
     Hybrid,
     /// Sleep on the daemon's event at once.
@@ -318,6 +322,9 @@ pub struct Client {
     /// Until when the daemon is expected to poll for requests (from its last response's
     /// [`ResponseHeader::awake_us`]); `None`: not known yet.
     daemon_awake_until: Option<Instant>,
+    /// The daemon had other requests in progress when it sent the last response
+    /// ([`ResponseHeader::busy`]).
+    daemon_busy: bool,
 }
 
 impl fmt::Debug for Client {
@@ -420,6 +427,7 @@ impl Client {
             next_id: seed | 1,
             stale: 0,
             daemon_awake_until: None,
+            daemon_busy: false,
         })
     }
 
@@ -545,7 +553,9 @@ impl Client {
         let mut next_liveness = start + LIVENESS_INTERVAL;
         let spin_until = match self.options.wait {
             WaitMode::Spin => None,
-            WaitMode::Hybrid if self.daemon_awake_at(start) => Some(start + self.options.spin),
+            WaitMode::Hybrid if self.daemon_awake_at(start) && !self.daemon_busy => {
+                Some(start + self.options.spin)
+            }
             WaitMode::Hybrid | WaitMode::Block => Some(start),
         };
         // the daemon's promise to stay awake, with a margin for the time the response
@@ -563,6 +573,7 @@ impl Client {
                         continue;
                     }
                     self.daemon_awake_until = awake_until(response.user_header());
+                    self.daemon_busy = response.user_header().busy() > 0;
                     return check_response(response, id);
                 }
                 Ok(None) => {}
@@ -584,6 +595,7 @@ impl Client {
                 return match pending.receive() {
                     Ok(Some(r)) if r.user_header().request_id == id => {
                         self.daemon_awake_until = awake_until(r.user_header());
+                        self.daemon_busy = r.user_header().busy() > 0;
                         check_response(r, id)
                     }
                     _ => Err(gone()),

@@ -241,7 +241,8 @@ pub struct ResponseHeader {
     pub row: u32,
     /// For a rejection: the [`Field`] code it concerns.
     pub field: u32,
-    /// For a rejection over a limit: the limit.
+    /// For a rejection over a limit: the limit. For a batch: how many other requests the
+    /// daemon had in progress when it sent this one (see [`ResponseHeader::busy`]).
     pub limit: u32,
     /// How long (us) the daemon keeps polling for requests after this response before
     /// it sleeps on its event (0: not said). A request sent within this time finds it
@@ -251,6 +252,18 @@ pub struct ResponseHeader {
 }
 
 impl ResponseHeader {
+    /// For a batch: the other requests the daemon had in progress when it answered
+    /// (0: this client had it to itself). A [`WaitMode::Hybrid`](crate::WaitMode) client
+    /// spins only while this is 0: when requests queue up, the daemon needs the cores
+    /// that spinning clients would take.
+    pub fn busy(&self) -> u32 {
+        if self.status == Status::Ok as u32 {
+            self.limit
+        } else {
+            0
+        }
+    }
+
     /// Number of `u32` words of the payload for this header's shape.
     pub fn payload_words(&self) -> usize {
         payload_words(self.agents as usize, self.k as usize, self.steps as usize)

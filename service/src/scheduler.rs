@@ -77,6 +77,8 @@ pub(crate) struct Finished<'a, O> {
     pub output: O,
     /// False when the prediction failed (a bug: decoding checks what it checks).
     pub ok: bool,
+    /// Other requests in progress (queued or finished but not yet sent).
+    pub others: usize,
 }
 
 /// Requests in progress and the workers that predict them.
@@ -270,6 +272,7 @@ impl<O: Output> Scheduler<O> {
                 agents: task.agents,
                 output,
                 ok: task.ok,
+                others: self.queue.len() + self.done.len(),
             });
             self.free.push(i);
         }

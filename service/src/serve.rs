@@ -446,6 +446,7 @@ impl Daemon {
                 rh.agents = f.agents as u32;
                 rh.k = f.params.k as u32;
                 rh.steps = f.params.steps() as u32;
+                rh.limit = f.others.min(u32::MAX as usize) as u32; // ResponseHeader::busy
                 *response.user_header_mut() = rh;
                 stats.served += 1;
                 response.send().map_err(|e| format!("{e:?}"))

@@ -112,6 +112,18 @@ struct Args {
     /// Print one JSON object instead of the table.
     #[arg(long)]
     json: bool,
+
+    /// Go on after a failed request (no daemon, daemon gone, deadline), as a robot
+    /// would: retry after a pause of 10 ms and count the failure. For fault tests (a
+    /// daemon killed and restarted under load): the output then says how long the
+    /// slowest failure took to be reported and how many requests succeeded after the
+    /// last one. The run ends after --requests successful requests or --give-up-s.
+    #[arg(long)]
+    keep_going: bool,
+
+    /// With --keep-going: stop when no request has succeeded for this long (s).
+    #[arg(long, default_value_t = 30.0)]
+    give_up_s: f64,
 }
 
 /// Distinct requests cycled through by every client.
@@ -185,6 +197,12 @@ fn consume<'a>(samples: impl Iterator<Item = &'a [[f32; 2]]>) -> f32 {
 struct ClientResult {
     latencies_ns: Vec<u64>,
     errors: Vec<String>,
+    /// Failed requests (all of them, while `errors` keeps the first few messages).
+    failures: usize,
+    /// The longest time a failed request took to report its failure (ns).
+    slowest_failure_ns: u64,
+    /// Successful requests after the last failure.
+    after_last_failure: usize,
     mismatches: usize,
     finished: Option<Instant>,
 }
@@ -223,13 +241,18 @@ fn run_client(
     out.latencies_ns.reserve(a.requests);
     barrier.wait();
     let mut pace = Pace::new(a.rate);
-    for i in 0..a.requests {
+    let mut last_success = Instant::now();
+    let mut i = 0;
+    while out.latencies_ns.len() < a.requests && (a.keep_going || i < a.requests) {
         let req = &pool[(offset + i) % pool.len()];
+        i += 1;
         pace.wait();
         let t0 = Instant::now();
         let r = client.predict(req);
         match r {
             Ok(p) => {
+                last_success = Instant::now();
+                out.after_last_failure += 1;
                 black_box(consume(p.agents().flat_map(|ag| ag.samples())));
                 out.latencies_ns.push(t0.elapsed().as_nanos() as u64);
                 if a.verify {
@@ -251,9 +274,19 @@ fn run_client(
                 }
             }
             Err(e) => {
+                out.failures += 1;
+                out.after_last_failure = 0;
+                out.slowest_failure_ns = out.slowest_failure_ns.max(t0.elapsed().as_nanos() as u64);
                 let fatal = matches!(e, Error::NoDaemon { .. } | Error::DaemonGone { .. });
                 if out.errors.len() < 20 {
                     out.errors.push(e.to_string());
+                }
+                if a.keep_going {
+                    if last_success.elapsed().as_secs_f64() > a.give_up_s {
+                        break;
+                    }
+                    std::thread::sleep(Duration::from_millis(10));
+                    continue;
                 }
                 if fatal {
                     break;
@@ -375,6 +408,19 @@ fn run(a: Args) -> Result<ExitCode, String> {
         .unwrap_or_else(Instant::now);
     let wall = end.duration_since(start).as_secs_f64();
     let errors: Vec<String> = results.iter().flat_map(|r| r.errors.clone()).collect();
+    let failures: usize = results.iter().map(|r| r.failures).sum();
+    let slowest_failure_ms = results
+        .iter()
+        .map(|r| r.slowest_failure_ns)
+        .max()
+        .unwrap_or(0) as f64
+        / 1e6;
+    // the client that recovered least: its successful requests after its last failure
+    let recovered = results
+        .iter()
+        .map(|r| r.after_last_failure)
+        .min()
+        .unwrap_or(0);
     let mismatches: usize = results.iter().map(|r| r.mismatches).sum();
     let mut ipc: Vec<u64> = results.into_iter().flat_map(|r| r.latencies_ns).collect();
     let done = ipc.len();
@@ -447,6 +493,9 @@ fn run(a: Args) -> Result<ExitCode, String> {
             "overhead_p99_us": s.p99 - l.p99,
             "ratio_p50": s.p50 / l.p50,
             "errors": errors.len(),
+            "failures": failures,
+            "slowest_failure_ms": slowest_failure_ms,
+            "min_successes_after_last_failure": recovered,
             "mismatches": if a.verify { Some(mismatches) } else { None },
             "cpus": cores,
         });
@@ -506,6 +555,11 @@ fn run(a: Args) -> Result<ExitCode, String> {
                 done
             );
         }
+        if a.keep_going && failures > 0 {
+            println!(
+                "  failures: {failures} requests failed (slowest reported after {slowest_failure_ms:.1} ms); every client then succeeded {recovered}+ times"
+            );
+        }
         println!();
         println!(
             "  round trip = send the request, cliffd validates it and predicts into shared memory,"
@@ -530,12 +584,19 @@ fn run(a: Args) -> Result<ExitCode, String> {
         }
     }
     if !errors.is_empty() {
-        eprintln!("{} request(s) failed; first errors:", errors.len());
+        eprintln!("{failures} request(s) failed; first errors:");
         for e in errors.iter().take(5) {
             eprintln!("  {e}");
         }
     }
-    if !errors.is_empty() || mismatches > 0 {
+    // with --keep-going, failures are the point of the run: it fails only when a client
+    // never recovered
+    let failed = if a.keep_going {
+        recovered == 0 && failures > 0
+    } else {
+        !errors.is_empty()
+    };
+    if failed || mismatches > 0 {
         return Ok(ExitCode::FAILURE);
     }
     Ok(ExitCode::SUCCESS)
