@@ -77,7 +77,12 @@ impl NeighbourTable {
         radius: f64,
     ) -> Option<Self> {
         let step = grid.step();
-        let margin = (radius / step).ceil() as usize + 1;
+        let margin = (radius / step).ceil();
+        // A radius of a million cells or more never fits the table (and would overflow).
+        if margin.is_nan() || margin >= 1e6 {
+            return None;
+        }
+        let margin = margin as usize + 1;
         let (gx, gy) = grid.dims();
         let nx = gx + 2 * margin;
         let ny = gy + 2 * margin;
