@@ -6,7 +6,10 @@
 
 use glam::DVec2;
 
-use super::{MAX_COORDINATE, MAX_GRID_CELLS, MAX_GRID_STEP, MIN_GRID_STEP, MapError};
+use super::{
+    FREE_GRID_CELLS, MAX_COORDINATE, MAX_GRID_CELLS, MAX_GRID_CELLS_PER_LOCATION, MAX_GRID_STEP,
+    MIN_GRID_STEP, MapError,
+};
 
 const EMPTY: u32 = u32::MAX;
 
@@ -38,8 +41,9 @@ impl GridIndex {
     ///
     /// Fails when a position is not finite or beyond [`MAX_COORDINATE`], when the step is
     /// not in [[`MIN_GRID_STEP`], [`MAX_GRID_STEP`]], when the bounding box holds more than
-    /// [`MAX_GRID_CELLS`] cells at that step, when a position is off the grid, or when
-    /// two positions share a cell.
+    /// [`MAX_GRID_CELLS`] cells at that step (or more than [`FREE_GRID_CELLS`] and more
+    /// than [`MAX_GRID_CELLS_PER_LOCATION`] per location), when a position is off the
+    /// grid, or when two positions share a cell.
     pub fn new(positions: &[DVec2], step: Option<f64>) -> Result<Self, MapError> {
         if positions.is_empty() {
             return Err(MapError::Empty);
@@ -91,7 +95,11 @@ impl GridIndex {
         // these are exact small integers or, for absurd maps, large but finite numbers.
         let fnx = ((hi.x - lo.x) / step).round() + 1.0;
         let fny = ((hi.y - lo.y) / step).round() + 1.0;
-        if fnx * fny > MAX_GRID_CELLS as f64 {
+        let budget = positions
+            .len()
+            .saturating_mul(MAX_GRID_CELLS_PER_LOCATION)
+            .clamp(FREE_GRID_CELLS, MAX_GRID_CELLS);
+        if fnx * fny > budget as f64 {
             // Name the location farthest from the first one: the likely stray.
             let p0 = positions[0];
             let far = (0..positions.len())
@@ -105,8 +113,12 @@ impl GridIndex {
                 far,
                 format!(
                     "the map's bounding box x {} .. {}, y {} .. {} m is {fnx} x {fny} cells \
-                     at grid step {step} m, more than {MAX_GRID_CELLS}",
-                    lo.x, hi.x, lo.y, hi.y
+                     at grid step {step} m, more than {budget} (for {} locations)",
+                    lo.x,
+                    hi.x,
+                    lo.y,
+                    hi.y,
+                    positions.len()
                 ),
             ));
         }
@@ -246,11 +258,21 @@ mod tests {
             Some(1.0),
         );
         assert!(e.contains("location 2") && e.contains("cells"), "{e}");
-        // the largest grid that passes: 4096 x 4096 = 2^24 cells
-        let g = GridIndex::new(&[DVec2::ZERO, DVec2::splat(4095.0)], Some(1.0)).unwrap();
+        // the largest grid that passes: 4096 x 4096 = 2^24 cells, for 4096 locations
+        let mut pts: Vec<DVec2> = (0..4096).map(|i| DVec2::new(i as f64, 0.0)).collect();
+        pts[1] = DVec2::new(1.0, 4095.0);
+        let g = GridIndex::new(&pts, Some(1.0)).unwrap();
         assert_eq!(g.dims(), (4096, 4096));
-        let e = msg(&[DVec2::ZERO, DVec2::new(4096.0, 4095.0)], Some(1.0));
+        pts.push(DVec2::new(4096.0, 0.0));
+        let e = msg(&pts, Some(1.0));
         assert!(e.contains("4097 x 4096 cells"), "{e}");
+        // two locations get 2^16 cells, not more
+        assert!(GridIndex::new(&[DVec2::ZERO, DVec2::splat(255.0)], Some(1.0)).is_ok());
+        let e = msg(&[DVec2::ZERO, DVec2::new(256.0, 255.0)], Some(1.0));
+        assert!(
+            e.contains("257 x 256 cells") && e.contains("more than 65536 (for 2 locations)"),
+            "{e}"
+        );
     }
 
     #[test]

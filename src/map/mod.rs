@@ -58,6 +58,12 @@ pub const MAX_GRID_STEP: f64 = 1e3;
 /// Largest number of cells of a map's grid index (its bounding box divided by the grid
 /// step): 2^24 cells, 64 MiB of index.
 pub const MAX_GRID_CELLS: usize = 1 << 24;
+/// Largest number of grid cells per location beyond the first [`FREE_GRID_CELLS`]: a
+/// map's index grows with its locations, so a small file cannot claim a large index
+/// (real maps hold a location in every second to fifth cell).
+pub const MAX_GRID_CELLS_PER_LOCATION: usize = 4096;
+/// Grid cells any map may have whatever its number of locations (2^16, 256 KiB).
+pub const FREE_GRID_CELLS: usize = 1 << 16;
 /// Largest number of mixture components at one location (every draw scans them).
 pub const MAX_COMPONENTS: usize = 64;
 /// Largest magnitude of a component's direction (rad), speed (m/s) and covariance
@@ -368,7 +374,9 @@ impl CliffMap {
     /// What a map may hold, checked here for every source (files, builders, callers):
     /// - positions finite with |x|, |y| <= [`MAX_COORDINATE`];
     /// - a grid step in [[`MIN_GRID_STEP`], [`MAX_GRID_STEP`]] (given or inferred), and a
-    ///   bounding box of at most [`MAX_GRID_CELLS`] cells at that step;
+    ///   bounding box of at most [`MAX_GRID_CELLS`] cells at that step, and at most
+    ///   [`FREE_GRID_CELLS`] or [`MAX_GRID_CELLS_PER_LOCATION`] per location, whichever
+    ///   is more;
     /// - every location on the grid, one per cell;
     /// - 1 to [`MAX_COMPONENTS`] components per location; directions, speeds and
     ///   covariance entries finite with magnitude at most [`MAX_COMPONENT_VALUE`],
@@ -814,6 +822,20 @@ mod tests {
     }
 
     #[test]
+    fn huge_radii_fall_back_to_the_grid_scan() {
+        // (radius / step) + 1 cells of margin used to overflow for radii near f64::MAX.
+        let m = CliffMap::demo();
+        for radius in [1e300, f64::MAX, 1e6] {
+            let lookup = m.lookup(radius);
+            assert!(matches!(lookup, Lookup::Grid(..)), "{radius}");
+            let p = DVec2::new(1.0, 2.0);
+            let best = lookup.best_near(p);
+            assert!(best.is_some());
+            assert_eq!(best, m.best_near(p, radius));
+        }
+    }
+
+    #[test]
     fn rejects_bad_locations() {
         assert!(matches!(CliffMap::new(vec![]), Err(MapError::Empty)));
         let mut l = loc(0.0, 0.0, 1.0, vec![comp(0.0, 1.0)]);
@@ -835,6 +857,24 @@ mod tests {
                 .to_string()
                 .contains("sum to zero")
         );
+        let l = loc(
+            0.0,
+            0.0,
+            1.0,
+            vec![comp(0.0, f64::MAX), comp(1.0, f64::MAX)],
+        );
+        let e = CliffMap::new(vec![l]).unwrap_err().to_string();
+        assert!(e.contains("sum to infinity"), "{e}");
+        let mut l = loc(0.0, 0.0, 1.0, vec![comp(0.0, 1.0)]);
+        l.components[0].cov[3] = -2e6;
+        let e = CliffMap::new(vec![l]).unwrap_err().to_string();
+        assert!(e.contains("beyond 1000000"), "{e}");
+        let l = loc(0.0, 0.0, 1.0, vec![comp(0.0, 1.0); MAX_COMPONENTS + 1]);
+        let e = CliffMap::new(vec![l]).unwrap_err().to_string();
+        assert!(e.contains("65 components, at most 64"), "{e}");
+        let l = loc(-1.5e6, 0.0, 1.0, vec![comp(0.0, 1.0)]);
+        let e = CliffMap::new(vec![l]).unwrap_err().to_string();
+        assert!(e.contains("beyond 1000000 m"), "{e}");
     }
 
     #[test]
