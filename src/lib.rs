@@ -18,6 +18,7 @@
 //! ```
 #![warn(missing_docs)]
 
+mod bounded_read;
 pub mod eval;
 pub mod map;
 pub mod motion;

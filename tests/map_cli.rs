@@ -232,3 +232,57 @@ fn bad_input_gets_clear_errors() {
     ]));
     assert!(e.contains("decay 0 must be in (0, 1]"), "{e}");
 }
+
+/// The known crashes of issue 9: a map CSV with one x of 1e20 made `cliff map info` panic
+/// (an overflowing grid cell count), and a snapshot with a grid step of 1e300 m loaded.
+#[test]
+fn absurd_maps_get_errors_with_file_line_and_column_not_panics() {
+    let dir = tmp();
+    let thor = std::fs::read_to_string(data("thor1/cliffmap.csv")).unwrap();
+    let rows = thor.lines().count();
+    let far = p(&dir, "far.csv");
+    std::fs::write(&far, format!("{thor}1e20,0,1,1,0.1,0,0,0.1,1,1,1\n")).unwrap();
+    for cmd in [
+        vec!["map", "info", &far],
+        vec!["map", "convert", &far, &p(&dir, "far.cliff")],
+    ] {
+        let e = err(&cliff(&cmd));
+        assert!(
+            e.contains(&format!(
+                "far.csv:{}: column 1: coordinate 1e20 is beyond",
+                rows + 1
+            )),
+            "{e}"
+        );
+        assert!(!e.contains("panicked") && !e.contains("backtrace"), "{e}");
+    }
+    // A bounding box of too many cells names the stray location's line.
+    let wide = p(&dir, "wide.csv");
+    std::fs::write(&wide, format!("{thor}9e5,9e5,1,1,0.1,0,0,0.1,1,1,1\n")).unwrap();
+    let e = err(&cliff(&["map", "info", &wide]));
+    assert!(
+        e.contains(&format!("wide.csv:{}: column 1", rows + 1)) && e.contains("cells"),
+        "{e}"
+    );
+
+    // A one-location snapshot, then the same with its grid step set to 1e300 m.
+    let one = p(&dir, "one.csv");
+    std::fs::write(&one, "2,3,1,1,0.1,0,0,0.1,1,1,1\n").unwrap();
+    let snap = p(&dir, "one.cliff");
+    ok(&cliff(&["map", "convert", &one, &snap]));
+    assert!(ok(&cliff(&["map", "info", &snap])).contains("grid step           1 m"));
+    let mut bytes = std::fs::read(&snap).unwrap();
+    // header: magic (8), version (4), payload length (8), CRC-32 (4); the payload
+    // starts with the grid step (f64, little-endian)
+    bytes[24..32].copy_from_slice(&1e300f64.to_le_bytes());
+    let crc = crc32fast::hash(&bytes[24..]);
+    bytes[20..24].copy_from_slice(&crc.to_le_bytes());
+    let huge = p(&dir, "huge-step.cliff");
+    std::fs::write(&huge, &bytes).unwrap();
+    let e = err(&cliff(&["map", "info", &huge]));
+    assert!(
+        e.contains("huge-step.cliff: not a valid cliff snapshot")
+            && e.contains("grid step 1e300 m is not in [0.001, 1000] m"),
+        "{e}"
+    );
+}

@@ -20,6 +20,8 @@ use std::str::FromStr;
 
 use glam::DVec2;
 
+use crate::bounded_read::{line_column, read_at_most};
+
 /// Trajectory file formats.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum Format {
@@ -100,14 +102,53 @@ pub enum DatasetError {
 
 const COLUMNS: usize = 6;
 
+/// Largest trajectory file read, in bytes (1 GiB).
+pub const MAX_TRACK_FILE_BYTES: u64 = 1 << 30;
+/// Largest |time| (s) of a row: 1e11 s covers unix times for the next three millennia.
+pub const MAX_TIME: f64 = 1e11;
+/// Largest |x| and |y| (m) of a row (the bound of map coordinates,
+/// [`MAX_COORDINATE`](crate::map::MAX_COORDINATE)).
+pub const MAX_POSITION: f64 = crate::map::MAX_COORDINATE;
+/// Largest speed (m/s) of a row. Tracker glitches of hundreds of m/s occur in real
+/// files (THÖR3 has one of 432 m/s) and are read, for the evaluation's filters to judge;
+/// this bound only refuses the absurd.
+pub const MAX_SPEED: f64 = 1e6;
+/// Largest |motion angle| (rad) of a row: the files hold (-pi, pi]; other conventions
+/// ([0, 2pi), degrees-free unwrapped angles) stay well within.
+pub const MAX_ANGLE: f64 = 1e3;
+
 /// Read the tracks of one file.
+///
+/// Files larger than [`MAX_TRACK_FILE_BYTES`] are refused before they are read; the
+/// rows are then checked as [`parse_tracks`] describes.
 pub fn read_tracks(path: &Path, format: Format) -> Result<Vec<Track>, DatasetError> {
     let file = path.display().to_string();
-    let text = std::fs::read_to_string(path).map_err(|source| DatasetError::Io {
+    let bytes = read_at_most(path, MAX_TRACK_FILE_BYTES).map_err(|source| DatasetError::Io {
         file: file.clone(),
         source,
     })?;
-    parse_tracks(&text, &file, format)
+    parse_track_bytes(&bytes, &file, format)
+}
+
+/// Parse trajectory bytes (UTF-8 text; anything else is an error at its line and
+/// column); `file` names the source in errors.
+pub fn parse_track_bytes(
+    bytes: &[u8],
+    file: &str,
+    format: Format,
+) -> Result<Vec<Track>, DatasetError> {
+    match std::str::from_utf8(bytes) {
+        Ok(text) => parse_tracks(text, file, format),
+        Err(e) => {
+            let (line, column) = line_column(bytes, e.valid_up_to());
+            Err(DatasetError::Parse {
+                file: file.to_string(),
+                line,
+                column,
+                message: "not UTF-8 text".into(),
+            })
+        }
+    }
 }
 
 /// Read and concatenate the tracks of several files (a person id seen in two files
@@ -121,6 +162,11 @@ pub fn read_many(paths: &[impl AsRef<Path>], format: Format) -> Result<Vec<Track
 }
 
 /// Parse trajectory text; `file` names the source in errors.
+///
+/// Every value must be a finite number within its bound: |time| <= [`MAX_TIME`],
+/// |x|, |y| <= [`MAX_POSITION`], 0 <= speed <= [`MAX_SPEED`],
+/// |angle| <= [`MAX_ANGLE`]; a person id is a whole number in `0..2^64`; a person's
+/// times strictly increase. Memory grows with the rows read, never with a value.
 pub fn parse_tracks(text: &str, file: &str, _format: Format) -> Result<Vec<Track>, DatasetError> {
     let err = |line: usize, column: usize, message: String| DatasetError::Parse {
         file: file.to_string(),
@@ -136,32 +182,44 @@ pub fn parse_tracks(text: &str, file: &str, _format: Format) -> Result<Vec<Track
         if raw.is_empty() {
             continue;
         }
-        let fields: Vec<&str> = raw.split(',').map(str::trim).collect();
-        if fields.len() != COLUMNS {
+        let mut fields = [""; COLUMNS];
+        let mut n = 0;
+        for f in raw.split(',') {
+            if n < COLUMNS {
+                fields[n] = f.trim();
+            }
+            n += 1;
+        }
+        if n != COLUMNS {
             return Err(err(
                 line,
                 0,
                 format!(
-                    "expected {COLUMNS} columns (time, person_id, x, y, speed, motion_angle), found {}",
-                    fields.len()
+                    "expected {COLUMNS} columns (time, person_id, x, y, speed, motion_angle), found {n}"
                 ),
             ));
         }
-        let num = |c: usize| -> Result<f64, DatasetError> {
+        let num = |c: usize, bound: f64, what: &str| -> Result<f64, DatasetError> {
             let v: f64 = fields[c]
                 .parse()
                 .map_err(|_| err(line, c + 1, format!("'{}' is not a number", fields[c])))?;
-            if v.is_finite() {
-                Ok(v)
-            } else {
+            if !v.is_finite() {
                 Err(err(line, c + 1, format!("'{}' is not finite", fields[c])))
+            } else if v.abs() > bound {
+                Err(err(
+                    line,
+                    c + 1,
+                    format!("{what} {v:?} is beyond {bound} in magnitude"),
+                ))
+            } else {
+                Ok(v)
             }
         };
-        let t = num(0)?;
+        let t = num(0, MAX_TIME, "time")?;
         let id: u64 = match fields[1].parse::<u64>() {
             Ok(id) => id,
             Err(_) => {
-                let f = num(1)?;
+                let f = num(1, f64::MAX, "person id")?;
                 if f >= 0.0 && f.fract() == 0.0 && f < 1.8e19 {
                     f as u64
                 } else {
@@ -178,9 +236,12 @@ pub fn parse_tracks(text: &str, file: &str, _format: Format) -> Result<Vec<Track
         };
         let row = Row {
             t,
-            position: DVec2::new(num(2)?, num(3)?),
-            speed: num(4)?,
-            angle: num(5)?,
+            position: DVec2::new(
+                num(2, MAX_POSITION, "coordinate")?,
+                num(3, MAX_POSITION, "coordinate")?,
+            ),
+            speed: num(4, MAX_SPEED, "speed")?,
+            angle: num(5, MAX_ANGLE, "motion angle")?,
         };
         if row.speed < 0.0 {
             return Err(err(line, 5, format!("negative speed {}", row.speed)));
@@ -238,6 +299,48 @@ mod tests {
         assert!(
             e("1,1,0,0,1,0\n1,1,0,0,1,0\n")
                 .contains("t.csv:2: column 1: time 1 of person 1 does not increase")
+        );
+    }
+
+    #[test]
+    fn absurd_values_lines_and_bytes_are_errors_with_line_and_column() {
+        assert!(e("1e300,1,0,0,1,0\n").contains("t.csv:1: column 1: time 1e300 is beyond"));
+        assert!(e("0,1,0,0,1,0\n1,1,1e7,0,1,0\n").contains("t.csv:2: column 3: coordinate"));
+        assert!(e("0,1,0,-2e6,1,0\n").contains("column 4: coordinate"));
+        assert!(e("0,1,0,0,2e6,0\n").contains("column 5: speed 2000000.0 is beyond 1000000"));
+        assert!(e("0,1,0,0,1,-1e4\n").contains("column 6: motion angle"));
+        assert!(e("0,1.5,0,0,1,0\n").contains("column 2: person id '1.5'"));
+        assert!(e("0,1e300,0,0,1,0\n").contains("column 2: person id"));
+        // a line of a million columns: counted, not collected
+        let long = format!("0,1,0,0,1,0{}\n", ",".repeat(1_000_000));
+        assert!(e(&long).contains(
+            "expected 6 columns (time, person_id, x, y, speed, motion_angle), found 1000006"
+        ));
+        let err = parse_track_bytes(b"0,1,0,0,1,0\n1,1,\xc3(,0,1,0\n", "t.csv", Format::Atc)
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("t.csv:2: column 5: not UTF-8"), "{err}");
+        // the bounds themselves are accepted; an id as a whole float is read
+        let t = parse_tracks(
+            "-1e11,7e0,1e6,-1e6,1e6,1000\n1e11,7,0,0,0,-1000\n",
+            "t",
+            Format::Thor,
+        )
+        .unwrap();
+        assert_eq!((t.len(), t[0].id, t[0].rows.len()), (1, 7, 2));
+    }
+
+    #[test]
+    fn refuses_files_over_the_size_limit_before_reading() {
+        // a sparse file of 1 GiB + 1 byte costs no disk
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("huge.csv");
+        let f = std::fs::File::create(&path).unwrap();
+        f.set_len(MAX_TRACK_FILE_BYTES + 1).unwrap();
+        let err = read_tracks(&path, Format::Atc).unwrap_err().to_string();
+        assert!(
+            err.contains("huge.csv") && err.contains("larger than 1073741824 bytes"),
+            "{err}"
         );
     }
 

@@ -6,7 +6,10 @@
 
 use glam::DVec2;
 
-use super::MapError;
+use super::{
+    FREE_GRID_CELLS, MAX_COORDINATE, MAX_GRID_CELLS, MAX_GRID_CELLS_PER_LOCATION, MAX_GRID_STEP,
+    MIN_GRID_STEP, MapError,
+};
 
 const EMPTY: u32 = u32::MAX;
 
@@ -36,7 +39,11 @@ impl GridIndex {
     /// Index `positions` on a grid of `step` metres (inferred from the smallest
     /// spacing of the coordinates when `None`; 1 m for a single location).
     ///
-    /// Fails when a position is off the grid or two positions share a cell.
+    /// Fails when a position is not finite or beyond [`MAX_COORDINATE`], when the step is
+    /// not in [[`MIN_GRID_STEP`], [`MAX_GRID_STEP`]], when the bounding box holds more than
+    /// [`MAX_GRID_CELLS`] cells at that step (or more than [`FREE_GRID_CELLS`] and more
+    /// than [`MAX_GRID_CELLS_PER_LOCATION`] per location), when a position is off the
+    /// grid, or when two positions share a cell.
     pub fn new(positions: &[DVec2], step: Option<f64>) -> Result<Self, MapError> {
         if positions.is_empty() {
             return Err(MapError::Empty);
@@ -57,13 +64,26 @@ impl GridIndex {
                     / 1e6
             }
         };
-        if !(step.is_finite() && step > 0.0) {
-            return Err(MapError::Location {
-                index: 0,
-                x: positions[0].x,
-                y: positions[0].y,
-                message: format!("grid step {step} is not positive"),
-            });
+        let at = |index: usize, message: String| MapError::Location {
+            index,
+            x: positions[index].x,
+            y: positions[index].y,
+            message,
+        };
+        if let Some(i) = positions
+            .iter()
+            .position(|p| !(p.is_finite() && p.abs().max_element() <= MAX_COORDINATE))
+        {
+            return Err(at(
+                i,
+                format!("position is not finite or beyond {MAX_COORDINATE} m from the origin"),
+            ));
+        }
+        if !(step.is_finite() && (MIN_GRID_STEP..=MAX_GRID_STEP).contains(&step)) {
+            return Err(at(
+                0,
+                format!("grid step {step:?} m is not in [{MIN_GRID_STEP}, {MAX_GRID_STEP}] m"),
+            ));
         }
         let lo = positions
             .iter()
@@ -71,16 +91,38 @@ impl GridIndex {
         let hi = positions
             .iter()
             .fold(DVec2::splat(f64::NEG_INFINITY), |a, p| a.max(*p));
-        let nx = ((hi.x - lo.x) / step).round() as usize + 1;
-        let ny = ((hi.y - lo.y) / step).round() as usize + 1;
-        if nx.saturating_mul(ny) > 64_000_000 {
-            return Err(MapError::Location {
-                index: 0,
-                x: lo.x,
-                y: lo.y,
-                message: format!("grid of {nx} x {ny} cells at step {step} m is too large"),
-            });
+        // Counted in floating point: positions are bounded and the step is not tiny, so
+        // these are exact small integers or, for absurd maps, large but finite numbers.
+        let fnx = ((hi.x - lo.x) / step).round() + 1.0;
+        let fny = ((hi.y - lo.y) / step).round() + 1.0;
+        let budget = positions
+            .len()
+            .saturating_mul(MAX_GRID_CELLS_PER_LOCATION)
+            .clamp(FREE_GRID_CELLS, MAX_GRID_CELLS);
+        if fnx * fny > budget as f64 {
+            // Name the location farthest from the first one: the likely stray.
+            let p0 = positions[0];
+            let far = (0..positions.len())
+                .max_by(|&a, &b| {
+                    let da = (positions[a] - p0).abs().max_element();
+                    let db = (positions[b] - p0).abs().max_element();
+                    da.total_cmp(&db).then(b.cmp(&a))
+                })
+                .unwrap_or(0);
+            return Err(at(
+                far,
+                format!(
+                    "the map's bounding box x {} .. {}, y {} .. {} m is {fnx} x {fny} cells \
+                     at grid step {step} m, more than {budget} (for {} locations)",
+                    lo.x,
+                    hi.x,
+                    lo.y,
+                    hi.y,
+                    positions.len()
+                ),
+            ));
         }
+        let (nx, ny) = (fnx as usize, fny as usize);
         let mut cells = vec![EMPTY; nx * ny];
         for (i, p) in positions.iter().enumerate() {
             let fx = (p.x - lo.x) / step;
@@ -204,6 +246,46 @@ mod tests {
         assert_eq!(n, 0);
         g.for_each_candidate(DVec2::new(f64::NAN, 0.0), 1.0, |_| n += 1);
         assert_eq!(n, 0);
+    }
+
+    #[test]
+    fn bounds_positions_steps_and_cell_counts() {
+        let msg =
+            |pts: &[DVec2], step: Option<f64>| GridIndex::new(pts, step).unwrap_err().to_string();
+        // x = 1e20 used to overflow the cell count and index out of bounds
+        let e = msg(&[DVec2::ZERO, DVec2::new(1e20, 0.0)], None);
+        assert!(e.contains("location 1") && e.contains("beyond"), "{e}");
+        let e = msg(&[DVec2::ZERO, DVec2::new(1e20, 0.0)], Some(0.5));
+        assert!(e.contains("location 1") && e.contains("beyond"), "{e}");
+        // a step of 1e300 m used to be accepted
+        let e = msg(&[DVec2::ZERO], Some(1e300));
+        assert!(e.contains("grid step 1e300 m is not in"), "{e}");
+        for step in [0.0, -1.0, f64::NAN, f64::INFINITY, 1e-4, 1001.0] {
+            assert!(msg(&[DVec2::ZERO], Some(step)).contains("grid step"));
+        }
+        assert!(GridIndex::new(&[DVec2::ZERO], Some(MIN_GRID_STEP)).is_ok());
+        assert!(GridIndex::new(&[DVec2::ZERO], Some(MAX_GRID_STEP)).is_ok());
+        // bounding box too large for the step: names the stray location
+        let e = msg(
+            &[DVec2::ZERO, DVec2::new(1.0, 0.0), DVec2::new(1e4, 1e4)],
+            Some(1.0),
+        );
+        assert!(e.contains("location 2") && e.contains("cells"), "{e}");
+        // the largest grid that passes: 4096 x 4096 = 2^24 cells, for 4096 locations
+        let mut pts: Vec<DVec2> = (0..4096).map(|i| DVec2::new(i as f64, 0.0)).collect();
+        pts[1] = DVec2::new(1.0, 4095.0);
+        let g = GridIndex::new(&pts, Some(1.0)).unwrap();
+        assert_eq!(g.dims(), (4096, 4096));
+        pts.push(DVec2::new(4096.0, 0.0));
+        let e = msg(&pts, Some(1.0));
+        assert!(e.contains("4097 x 4096 cells"), "{e}");
+        // two locations get 2^16 cells, not more
+        assert!(GridIndex::new(&[DVec2::ZERO, DVec2::splat(255.0)], Some(1.0)).is_ok());
+        let e = msg(&[DVec2::ZERO, DVec2::new(256.0, 255.0)], Some(1.0));
+        assert!(
+            e.contains("257 x 256 cells") && e.contains("more than 65536 (for 2 locations)"),
+            "{e}"
+        );
     }
 
     #[test]

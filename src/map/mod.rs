@@ -40,13 +40,39 @@ use rand_distr::StandardNormal;
 use serde::{Deserialize, Serialize};
 
 pub use build::{BuildParams, Observation, build_map};
-pub use csv::{read_csv, read_csv_str, write_csv, write_csv_string};
+pub use csv::{read_csv, read_csv_bytes, read_csv_str, write_csv, write_csv_string};
 pub use grid::GridIndex;
 pub use neighbours::NeighbourTable;
 pub use score::{ScoreParams, ScoreReport, score};
-pub use snapshot::{SNAPSHOT_MAGIC, SNAPSHOT_VERSION, read_snapshot, write_snapshot};
+pub use snapshot::{
+    SNAPSHOT_MAGIC, SNAPSHOT_VERSION, read_snapshot, read_snapshot_bytes, write_snapshot,
+};
 pub use tables::{DEFAULT_TABLE_BUDGET, TableCache, TableError, TableStats};
 pub use update::{OnlineMap, UpdateParams};
+
+/// Largest |x| and |y| (m) of a map location: maps are of buildings and sites, and this
+/// bound keeps every grid computation far from overflow and rounding trouble.
+pub const MAX_COORDINATE: f64 = 1e6;
+/// Smallest grid step (m) a map may have.
+pub const MIN_GRID_STEP: f64 = 1e-3;
+/// Largest grid step (m) a map may have.
+pub const MAX_GRID_STEP: f64 = 1e3;
+/// Largest number of cells of a map's grid index (its bounding box divided by the grid
+/// step): 2^24 cells, 64 MiB of index.
+pub const MAX_GRID_CELLS: usize = 1 << 24;
+/// Largest number of grid cells per location beyond the first [`FREE_GRID_CELLS`]: a
+/// map's index grows with its locations, so a small file cannot claim a large index
+/// (real maps hold a location in every second to fifth cell).
+pub const MAX_GRID_CELLS_PER_LOCATION: usize = 4096;
+/// Grid cells any map may have whatever its number of locations (2^16, 256 KiB).
+pub const FREE_GRID_CELLS: usize = 1 << 16;
+/// Largest number of mixture components at one location (every draw scans them).
+pub const MAX_COMPONENTS: usize = 64;
+/// Largest magnitude of a component's direction (rad), speed (m/s) and covariance
+/// entries: far beyond any real map, small enough that no derived quantity overflows.
+pub const MAX_COMPONENT_VALUE: f64 = 1e6;
+/// Largest map file (CSV or snapshot) read, in bytes (256 MiB).
+pub const MAX_MAP_FILE_BYTES: u64 = 1 << 28;
 
 /// One semi-wrapped normal component of a location's velocity mixture.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -349,6 +375,32 @@ impl CliffMap {
     }
 
     /// Build a map from locations on a grid of the given step (m); `None` infers it.
+    ///
+    /// What a map may hold, checked here for every source (files, builders, callers):
+    /// - positions finite with |x|, |y| <= [`MAX_COORDINATE`];
+    /// - a grid step in [[`MIN_GRID_STEP`], [`MAX_GRID_STEP`]] (given or inferred), and a
+    ///   bounding box of at most [`MAX_GRID_CELLS`] cells at that step, and at most
+    ///   [`FREE_GRID_CELLS`] or [`MAX_GRID_CELLS_PER_LOCATION`] per location, whichever
+    ///   is more;
+    /// - every location on the grid, one per cell;
+    /// - 1 to [`MAX_COMPONENTS`] components per location; directions, speeds and
+    ///   covariance entries finite with magnitude at most [`MAX_COMPONENT_VALUE`],
+    ///   speeds >= 0; weights finite and >= 0 with a positive, finite sum;
+    /// - motion ratio finite and >= 0, observation ratio in [0, 1].
+    ///
+    /// ```
+    /// use cliff::map::{CliffMap, Component, Location};
+    /// let loc = |x: f64| Location {
+    ///     position: glam::DVec2::new(x, 0.0),
+    ///     components: vec![Component { theta: 0.0, rho: 1.0, cov: [0.1, 0.0, 0.0, 0.1], weight: 1.0 }],
+    ///     motion_ratio: 1.0,
+    ///     observation_ratio: 1.0,
+    /// };
+    /// assert!(CliffMap::with_grid_step(vec![loc(0.0), loc(0.5)], Some(0.5)).is_ok());
+    /// // a step of 1e300 m is refused, as is a location beyond 1e6 m
+    /// assert!(CliffMap::with_grid_step(vec![loc(0.0)], Some(1e300)).is_err());
+    /// assert!(CliffMap::with_grid_step(vec![loc(0.0), loc(1e20)], None).is_err());
+    /// ```
     pub fn with_grid_step(locations: Vec<Location>, step: Option<f64>) -> Result<Self, MapError> {
         if locations.is_empty() {
             return Err(MapError::Empty);
@@ -622,8 +674,19 @@ fn validate_location(index: usize, loc: &Location) -> Result<(), MapError> {
     if !loc.position.is_finite() {
         return Err(err("position is not finite".into()));
     }
+    if loc.position.abs().max_element() > MAX_COORDINATE {
+        return Err(err(format!(
+            "position is beyond {MAX_COORDINATE} m from the origin"
+        )));
+    }
     if loc.components.is_empty() {
         return Err(err("no components".into()));
+    }
+    if loc.components.len() > MAX_COMPONENTS {
+        return Err(err(format!(
+            "{} components, at most {MAX_COMPONENTS} per location",
+            loc.components.len()
+        )));
     }
     if !(loc.observation_ratio.is_finite() && (0.0..=1.0 + 1e-9).contains(&loc.observation_ratio)) {
         return Err(err(format!(
@@ -645,6 +708,11 @@ fn validate_location(index: usize, loc: &Location) -> Result<(), MapError> {
         if vals.iter().any(|v| !v.is_finite()) {
             return Err(err(format!("component {j} has a non-finite value")));
         }
+        if vals[..6].iter().any(|v| v.abs() > MAX_COMPONENT_VALUE) {
+            return Err(err(format!(
+                "component {j} has a direction, speed or covariance beyond {MAX_COMPONENT_VALUE}"
+            )));
+        }
         if c.rho < 0.0 {
             return Err(err(format!("component {j} has negative speed {}", c.rho)));
         }
@@ -658,6 +726,9 @@ fn validate_location(index: usize, loc: &Location) -> Result<(), MapError> {
     }
     if total <= 0.0 {
         return Err(err("component weights sum to zero".into()));
+    }
+    if !total.is_finite() {
+        return Err(err("component weights sum to infinity".into()));
     }
     Ok(())
 }
@@ -777,6 +848,20 @@ mod tests {
     }
 
     #[test]
+    fn huge_radii_fall_back_to_the_grid_scan() {
+        // (radius / step) + 1 cells of margin used to overflow for radii near f64::MAX.
+        let m = CliffMap::demo();
+        for radius in [1e300, f64::MAX, 1e6] {
+            let lookup = m.lookup(radius);
+            assert!(matches!(lookup, Lookup::Grid(..)), "{radius}");
+            let p = DVec2::new(1.0, 2.0);
+            let best = lookup.best_near(p);
+            assert!(best.is_some());
+            assert_eq!(best, m.best_near(p, radius));
+        }
+    }
+
+    #[test]
     fn rejects_bad_locations() {
         assert!(matches!(CliffMap::new(vec![]), Err(MapError::Empty)));
         let mut l = loc(0.0, 0.0, 1.0, vec![comp(0.0, 1.0)]);
@@ -798,6 +883,24 @@ mod tests {
                 .to_string()
                 .contains("sum to zero")
         );
+        let l = loc(
+            0.0,
+            0.0,
+            1.0,
+            vec![comp(0.0, f64::MAX), comp(1.0, f64::MAX)],
+        );
+        let e = CliffMap::new(vec![l]).unwrap_err().to_string();
+        assert!(e.contains("sum to infinity"), "{e}");
+        let mut l = loc(0.0, 0.0, 1.0, vec![comp(0.0, 1.0)]);
+        l.components[0].cov[3] = -2e6;
+        let e = CliffMap::new(vec![l]).unwrap_err().to_string();
+        assert!(e.contains("beyond 1000000"), "{e}");
+        let l = loc(0.0, 0.0, 1.0, vec![comp(0.0, 1.0); MAX_COMPONENTS + 1]);
+        let e = CliffMap::new(vec![l]).unwrap_err().to_string();
+        assert!(e.contains("65 components, at most 64"), "{e}");
+        let l = loc(-1.5e6, 0.0, 1.0, vec![comp(0.0, 1.0)]);
+        let e = CliffMap::new(vec![l]).unwrap_err().to_string();
+        assert!(e.contains("beyond 1000000 m"), "{e}");
     }
 
     #[test]

@@ -8,7 +8,8 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
-use super::{CliffMap, Location, MapError};
+use super::{CliffMap, Location, MAX_MAP_FILE_BYTES, MapError};
+use crate::bounded_read::read_at_most;
 
 /// The first eight bytes of every snapshot.
 pub const SNAPSHOT_MAGIC: [u8; 8] = *b"CLIFFMAP";
@@ -83,14 +84,24 @@ pub fn decode(bytes: &[u8], file: &str) -> Result<CliffMap, MapError> {
         .map_err(|e| bad(e.to_string()))
 }
 
-/// Read a snapshot file.
+/// Read a snapshot file (at most [`MAX_MAP_FILE_BYTES`]; see [`read_snapshot_bytes`]).
 pub fn read_snapshot(path: &Path) -> Result<CliffMap, MapError> {
     let name = path.display().to_string();
-    let bytes = std::fs::read(path).map_err(|source| MapError::Io {
+    let bytes = read_at_most(path, MAX_MAP_FILE_BYTES).map_err(|source| MapError::Io {
         file: name.clone(),
         source,
     })?;
     decode(&bytes, &name)
+}
+
+/// Read a map from snapshot bytes; `file` names the source in errors.
+///
+/// The header is checked before the payload is decoded (magic, version, the payload
+/// length against the bytes present, the checksum); decoding allocates at most in
+/// proportion to the payload (a length prefix is never trusted for an allocation), and
+/// the map gets the checks of [`CliffMap::with_grid_step`].
+pub fn read_snapshot_bytes(bytes: &[u8], file: &str) -> Result<CliffMap, MapError> {
+    decode(bytes, file)
 }
 
 /// Write a snapshot file.
@@ -111,6 +122,62 @@ mod tests {
         let back = decode(&encode(&m), "x").unwrap();
         assert_eq!(back.locations(), m.locations());
         assert_eq!(back.grid().step(), m.grid().step());
+    }
+
+    /// A snapshot file around `body`, with a correct header.
+    fn wrap(body: &[u8]) -> Vec<u8> {
+        let mut out = SNAPSHOT_MAGIC.to_vec();
+        out.extend_from_slice(&SNAPSHOT_VERSION.to_le_bytes());
+        out.extend_from_slice(&(body.len() as u64).to_le_bytes());
+        out.extend_from_slice(&crc32fast::hash(body).to_le_bytes());
+        out.extend_from_slice(body);
+        out
+    }
+
+    #[test]
+    fn refuses_absurd_steps_and_positions() {
+        let one = CliffMap::demo().locations()[0].clone();
+        let payload = |grid_step: f64, locations: Vec<Location>| {
+            postcard::to_stdvec(&Payload {
+                grid_step,
+                locations,
+            })
+            .unwrap()
+        };
+        // The known case: a one-location snapshot with a grid step of 1e300 was accepted.
+        let e = decode(&wrap(&payload(1e300, vec![one.clone()])), "s.cliff")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("s.cliff") && e.contains("grid step 1e300 m is not in [0.001, 1000] m"),
+            "{e}"
+        );
+        assert!(decode(&wrap(&payload(1.0, vec![one.clone()])), "s").is_ok());
+        let mut far = one.clone();
+        far.position.x = 1e20;
+        let e = decode(&wrap(&payload(1.0, vec![one.clone(), far])), "s")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("location 1") && e.contains("beyond"), "{e}");
+        let mut wide = one;
+        wide.components = vec![wide.components[0]; crate::map::MAX_COMPONENTS + 1];
+        let e = decode(&wrap(&payload(1.0, vec![wide])), "s")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("65 components, at most 64"), "{e}");
+    }
+
+    #[test]
+    fn huge_length_prefixes_do_not_allocate() {
+        // A location list claiming 2^60 entries (and then one claiming 2^32 components):
+        // the decoder runs out of bytes long before it could allocate that much.
+        let body = postcard::to_stdvec(&(1.0f64, 1u64 << 60)).unwrap();
+        let e = decode(&wrap(&body), "s").unwrap_err().to_string();
+        assert!(e.contains("payload"), "{e}");
+        let mut body = postcard::to_stdvec(&(1.0f64, 1u64, 0.0f64, 0.0f64)).unwrap();
+        body.extend(postcard::to_stdvec(&(1u64 << 32)).unwrap());
+        let e = decode(&wrap(&body), "s").unwrap_err().to_string();
+        assert!(e.contains("payload"), "{e}");
     }
 
     #[test]

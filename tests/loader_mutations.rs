@@ -1,0 +1,278 @@
+//! Property tests of the file readers (issue 9): random mutations of the real map CSV,
+//! snapshot and trajectory files never panic, and each either loads (and keeps its
+//! invariants) or gives an error naming the file, line and column. Seeded, so a failure
+//! reproduces; the same readers are fuzzed for much longer by the targets in `fuzz/`.
+
+use std::path::Path;
+
+use cliff::eval::dataset::{DatasetError, Format, parse_track_bytes};
+use cliff::map::{
+    CliffMap, MapError, SNAPSHOT_MAGIC, SNAPSHOT_VERSION, read_csv_bytes, read_csv_str,
+    read_snapshot_bytes, write_csv_string,
+};
+use rand::{Rng, RngExt, SeedableRng};
+use rand_xoshiro::Xoshiro256PlusPlus;
+
+mod common;
+use common::data;
+
+/// Values that are absurd, borderline or malformed somewhere in a row.
+const ODD_FIELDS: &[&str] = &[
+    "1e20",
+    "-1e20",
+    "1e300",
+    "1e-300",
+    "1000000",
+    "-1000001",
+    "0",
+    "-0",
+    "nan",
+    "inf",
+    "-inf",
+    "",
+    " ",
+    "1e",
+    "0x10",
+    "99999999999999999999",
+    "18446744073709551616",
+    "-1",
+    "0.0001",
+    "5000",
+    "1.5",
+    "3.3e6",
+];
+
+/// Apply 1 to 4 random edits to `text`: byte flips, insertions and deletions, a field
+/// replaced by an odd value, a line duplicated, dropped or swapped.
+fn mutate(text: &[u8], rng: &mut impl Rng) -> Vec<u8> {
+    let mut b = text.to_vec();
+    for _ in 0..rng.random_range(1..=4) {
+        let n = b.len().max(1);
+        match rng.random_range(0..7) {
+            0 if !b.is_empty() => {
+                let i = rng.random_range(0..b.len());
+                b[i] ^= 1 << rng.random_range(0..8);
+            }
+            1 => {
+                let i = rng.random_range(0..=b.len());
+                b.insert(
+                    i,
+                    *b",.-e0123456789\n\xff"
+                        .get(rng.random_range(0..16))
+                        .unwrap(),
+                );
+            }
+            2 if !b.is_empty() => {
+                let i = rng.random_range(0..b.len());
+                let j = (i + rng.random_range(1..40)).min(b.len());
+                b.drain(i..j);
+            }
+            3 | 4 => {
+                // replace one field of one line
+                let text = String::from_utf8_lossy(&b).into_owned();
+                let mut lines: Vec<String> = text.lines().map(str::to_owned).collect();
+                if lines.is_empty() {
+                    continue;
+                }
+                let l = rng.random_range(0..lines.len());
+                let mut fields: Vec<&str> = lines[l].split(',').collect();
+                let f = rng.random_range(0..fields.len());
+                fields[f] = ODD_FIELDS[rng.random_range(0..ODD_FIELDS.len())];
+                lines[l] = fields.join(",");
+                b = (lines.join("\n") + "\n").into_bytes();
+            }
+            5 => {
+                let text = String::from_utf8_lossy(&b).into_owned();
+                let mut lines: Vec<&str> = text.lines().collect();
+                if lines.is_empty() {
+                    continue;
+                }
+                let l = rng.random_range(0..lines.len());
+                match rng.random_range(0..3) {
+                    0 => lines.insert(rng.random_range(0..=lines.len()), lines[l]),
+                    1 => {
+                        lines.remove(l);
+                    }
+                    _ => {
+                        let m = rng.random_range(0..lines.len());
+                        lines.swap(l, m);
+                    }
+                }
+                b = (lines.join("\n") + "\n").into_bytes();
+            }
+            _ => {
+                let i = rng.random_range(0..n);
+                b.truncate(i);
+            }
+        }
+    }
+    b
+}
+
+fn lines_of(bytes: &[u8]) -> usize {
+    bytes.split(|&c| c == b'\n').count()
+}
+
+/// The first `n` rows of a real map (a smaller map loads faster, so more mutations run).
+fn head(path: &str, n: usize) -> Vec<u8> {
+    let text = std::fs::read_to_string(data(path)).unwrap();
+    let rows: Vec<&str> = text.lines().take(n).collect();
+    (rows.join("\n") + "\n").into_bytes()
+}
+
+#[test]
+fn mutated_map_csv_loads_or_names_line_and_column() {
+    let mut rng = Xoshiro256PlusPlus::seed_from_u64(9);
+    let (mut loaded, mut refused) = (0, 0);
+    for (path, rows, runs) in [
+        ("thor1/cliffmap.csv", 60, 1500),
+        ("atc/cliffmap-20121024.csv", 60, 1500),
+        ("thor3/cliffmap.csv", 10_000, 200),
+    ] {
+        let original = head(path, rows);
+        assert!(read_csv_bytes(&original, "m.csv").is_ok(), "{path}");
+        for _ in 0..runs {
+            let bytes = mutate(&original, &mut rng);
+            match read_csv_bytes(&bytes, "m.csv") {
+                Ok(map) => {
+                    loaded += 1;
+                    let back = read_csv_str(&write_csv_string(&map)).unwrap();
+                    assert_eq!(back.locations(), map.locations());
+                }
+                Err(MapError::Parse {
+                    file,
+                    line,
+                    column,
+                    message,
+                }) => {
+                    refused += 1;
+                    assert_eq!(file, "m.csv");
+                    assert!(line <= lines_of(&bytes), "{line}: {message}");
+                    assert!(column <= 11 || message.contains("UTF-8"), "{message}");
+                    assert!(line > 0 || message == "no map rows", "{message}");
+                }
+                Err(e) => panic!("an error without line and column: {e}"),
+            }
+        }
+    }
+    // both outcomes are exercised
+    assert!(
+        loaded > 100 && refused > 1000,
+        "{loaded} loaded, {refused} refused"
+    );
+}
+
+fn with_header(body: &[u8]) -> Vec<u8> {
+    let mut out = SNAPSHOT_MAGIC.to_vec();
+    out.extend_from_slice(&SNAPSHOT_VERSION.to_le_bytes());
+    out.extend_from_slice(&(body.len() as u64).to_le_bytes());
+    out.extend_from_slice(&crc32fast::hash(body).to_le_bytes());
+    out.extend_from_slice(body);
+    out
+}
+
+#[test]
+fn snapshots_round_trip_and_mutations_load_or_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut rng = Xoshiro256PlusPlus::seed_from_u64(10);
+    let mut loaded = 0;
+    for path in ["thor1/cliffmap.csv", "atc/cliffmap-20121024.csv"] {
+        let map = CliffMap::load(data(path)).unwrap();
+        let file = dir.path().join("m.cliff");
+        map.save(&file).unwrap();
+        let bytes = std::fs::read(&file).unwrap();
+        let back = read_snapshot_bytes(&bytes, "m.cliff").unwrap();
+        assert_eq!(back.locations(), map.locations());
+        assert_eq!(back.grid().step(), map.grid().step());
+        assert_eq!(write_csv_string(&back), write_csv_string(&map));
+        // Mutations of a smaller snapshot (the first 200 rows): more of them per second.
+        let small = read_csv_bytes(&head(path, 200), "m.csv").unwrap();
+        small.save(&file).unwrap();
+        let bytes = std::fs::read(&file).unwrap();
+        let payload = &bytes[24..];
+        for i in 0..1500 {
+            // Mutate the payload and give it a correct header (so the decoder and the
+            // map checks see it), or mutate the whole file.
+            let m = if i % 4 == 0 {
+                mutate(&bytes, &mut rng)
+            } else {
+                let mut p = payload.to_vec();
+                for _ in 0..rng.random_range(1..4) {
+                    let j = rng.random_range(0..p.len());
+                    p[j] = rng.random();
+                }
+                if rng.random_range(0..4) == 0 {
+                    p.truncate(rng.random_range(0..p.len()));
+                }
+                with_header(&p)
+            };
+            match read_snapshot_bytes(&m, "m.cliff") {
+                Ok(map) => {
+                    loaded += 1;
+                    assert!(!map.locations().is_empty());
+                }
+                Err(MapError::Snapshot { file, .. }) => assert_eq!(file, "m.cliff"),
+                Err(e) => panic!("a snapshot error of the wrong kind: {e}"),
+            }
+        }
+    }
+    assert!(loaded > 50, "{loaded}");
+}
+
+#[test]
+fn mutated_track_files_load_or_name_line_and_column() {
+    let mut rng = Xoshiro256PlusPlus::seed_from_u64(11);
+    let (mut loaded, mut refused) = (0, 0);
+    for (path, format) in [
+        ("thor1/exp-1-run-2.csv", Format::Thor),
+        ("thor3/exp-3-run-2.csv", Format::Thor),
+        ("atc/dev/atc-1024-13_test.csv", Format::Atc),
+    ] {
+        let original = head(path, 300);
+        assert!(parse_track_bytes(&original, "t.csv", format).is_ok());
+        for _ in 0..1500 {
+            let bytes = mutate(&original, &mut rng);
+            match parse_track_bytes(&bytes, "t.csv", format) {
+                Ok(tracks) => {
+                    loaded += 1;
+                    for t in &tracks {
+                        assert!(!t.rows.is_empty());
+                        assert!(t.rows.windows(2).all(|w| w[0].t < w[1].t));
+                        assert!(
+                            t.rows.iter().all(|r| r.position.is_finite()
+                                && r.speed >= 0.0
+                                && r.t.is_finite())
+                        );
+                    }
+                }
+                Err(DatasetError::Parse {
+                    file,
+                    line,
+                    column,
+                    message,
+                }) => {
+                    refused += 1;
+                    assert_eq!(file, "t.csv");
+                    assert!(line >= 1 && line <= lines_of(&bytes), "{line}: {message}");
+                    assert!(column <= 6 || message.contains("UTF-8"), "{message}");
+                }
+                Err(e) => panic!("a track error without line and column: {e}"),
+            }
+        }
+    }
+    assert!(
+        loaded > 300 && refused > 1000,
+        "{loaded} loaded, {refused} refused"
+    );
+}
+
+#[test]
+fn real_files_still_load() {
+    for path in [
+        "thor1/cliffmap.csv",
+        "thor3/cliffmap.csv",
+        "atc/cliffmap-20121024.csv",
+    ] {
+        assert!(CliffMap::load(Path::new(&data(path))).is_ok(), "{path}");
+    }
+}
