@@ -460,15 +460,17 @@ mod tests {
         assert_eq!(s.run_round(), 600);
         assert_eq!(s.run_round(), 600);
         assert_eq!(s.in_progress(), 3);
-        let mut n = 0;
+        let mut others = Vec::new();
         while s.busy() {
             s.run_round();
             s.take_finished(|f| {
                 assert!(f.ok && f.agents == 9);
-                n += 1
+                others.push(f.others);
             });
         }
-        assert_eq!(n, 3);
+        // each response says how many other requests were still in progress
+        assert_eq!(others.len(), 3);
+        assert!(others[0] >= 1 && others[2] == 0, "{others:?}");
         assert!(
             s.parallel_chunks == 0,
             "rounds under the threshold run serially"
