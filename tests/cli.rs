@@ -230,3 +230,119 @@ fn bad_input_gets_a_clear_error() {
         "{stderr}"
     );
 }
+
+/// THÖR-MAGNI end to end: a map from the recording's first 8 minutes, challenge windows
+/// (8 observed, 12 predicted rows at 0.4 s) over the last 8, a window every 4 s.
+#[test]
+fn magni_map_from_first_half_windows_over_second_half() {
+    let out = tmp("magni");
+    let rec = data("magni/magni-A-first-16min.csv");
+    let map = out.join("first8.cliff");
+    let o = cliff(&[
+        "map",
+        "build",
+        "--tracks",
+        &rec,
+        "--format",
+        "magni",
+        "--time-until",
+        "480",
+        "--grid",
+        "0.5",
+        "--radius",
+        "0.5",
+        "--out",
+        map.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", text(&o).1);
+    let eval = |extra: &[&str]| {
+        let mut args = vec![
+            "eval",
+            "--map",
+            map.to_str().unwrap(),
+            "--tracks",
+            &rec,
+            "--protocol",
+            "windows",
+            "--obs",
+            "3.2",
+            "--dt",
+            "0.4",
+            "--horizon",
+            "4.8",
+            "--window-every",
+            "4",
+            "--seeds",
+            "2",
+            "--out",
+            out.to_str().unwrap(),
+        ];
+        args.extend_from_slice(extra);
+        let o = cliff(&args);
+        let (stdout, stderr) = text(&o);
+        assert!(o.status.success(), "{stderr}");
+        let summary = std::fs::read_to_string(out.join("summary.csv")).unwrap();
+        let per_person = std::fs::read_to_string(out.join("per_person.csv")).unwrap();
+        (stdout, summary, per_person)
+    };
+    let (stdout, summary, per_person) = eval(&["--format", "magni", "--time-from", "480"]);
+    // the windows of the second half only: people 2 and 7 left before 480 s
+    assert!(stdout.contains("windows of 7 people"), "{stdout}");
+    assert!(
+        per_person.starts_with("person_id,window,method,"),
+        "{per_person}"
+    );
+    for line in per_person.lines().skip(1) {
+        let f: Vec<&str> = line.split(',').collect();
+        assert!(!["2", "7"].contains(&f[0]), "{line}");
+        // windows every 4 s from the track's first row at or after 480 s: numbers stay
+        // small (8 minutes / 4 s = 120)
+        let w: u32 = f[1].parse().unwrap();
+        assert!((1..=121).contains(&w), "{line}");
+    }
+    // 12 predicted rows: the summary reaches 4.8 s, not beyond
+    assert!(summary.contains("cliff,4.8,"), "{summary}");
+    assert!(!summary.contains(",5.2,"), "{summary}");
+    // the same recording through the named-column reader gives the same report
+    let (stdout2, summary2, _) = eval(&[
+        "--format",
+        "csv",
+        "--columns",
+        "t=Time,id=ag_id,x=x,y=y,speed=speed,vx=x_speed,vy=y_speed",
+        "--time-from",
+        "480",
+    ]);
+    assert_eq!(summary2, summary);
+    assert_eq!(stdout2.lines().nth(1), stdout.lines().nth(1));
+    // a mapping for a headerless format, or a column the file lacks, is refused clearly
+    let o = cliff(&[
+        "eval",
+        "--tracks",
+        &rec,
+        "--format",
+        "thor",
+        "--columns",
+        "t=Time,id=ag_id,x=x,y=y",
+    ]);
+    assert!(!o.status.success());
+    assert!(
+        text(&o).1.contains("needs a file with a header row"),
+        "{}",
+        text(&o).1
+    );
+    let o = cliff(&[
+        "eval",
+        "--tracks",
+        &rec,
+        "--format",
+        "csv",
+        "--columns",
+        "t=Time,id=agent,x=x,y=y",
+    ]);
+    assert!(
+        text(&o).1.contains("no column named 'agent' in the header"),
+        "{}",
+        text(&o).1
+    );
+    let _ = std::fs::remove_dir_all(&out);
+}

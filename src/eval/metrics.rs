@@ -120,6 +120,7 @@ mod tests {
             future,
             horizon: 5.0,
             steps: 5,
+            window: 0,
         };
         let a: Vec<Point> = (1..=5).map(|i| [i as f32, 0.0]).collect();
         let b: Vec<Point> = (1..=2).map(|i| [i as f32, 1.0]).collect();

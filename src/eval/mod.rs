@@ -18,10 +18,12 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
+pub mod columns;
 pub mod dataset;
 pub mod metrics;
 pub mod protocol;
 mod report;
+pub mod windows;
 
 pub use report::{
     EvalConfig, EvalReport, PersonRow, SUMMARY_HEADER, SummaryRow, evaluate, per_person_csv,

@@ -12,7 +12,7 @@ use rayon::prelude::*;
 
 use super::dataset::Track;
 use super::metrics::{Scratch, StepErrors, person_errors};
-use super::protocol::{Case, Settings, prepare};
+use super::protocol::{Case, Settings, prepare_all};
 use crate::map::CliffMap;
 use crate::predict::{Method, Params, PredictError, TrajectoryBatch, predict};
 
@@ -66,6 +66,8 @@ pub struct SummaryRow {
 pub struct PersonRow {
     /// Person id.
     pub person_id: u64,
+    /// Window number along the person's track (windows protocol; 0 otherwise).
+    pub window: u32,
     /// Method.
     pub method: Method,
     /// Horizon (s).
@@ -87,7 +89,7 @@ pub struct PersonRow {
 pub struct EvalReport {
     /// People in the input.
     pub people_total: usize,
-    /// People the protocol kept.
+    /// People the protocol kept (windows, with the windows protocol).
     pub people_evaluated: usize,
     /// One row per method and horizon step, in method order then horizon.
     pub summary: Vec<SummaryRow>,
@@ -134,7 +136,7 @@ fn run_case(
                 method,
                 dt,
                 horizon: case.steps as f64 * dt,
-                seed: person_seed(seed as u64, case.id),
+                seed: person_seed(seed as u64, case.seed_key()),
                 // constant velocity draws nothing: one sample stands for all k
                 k: if method == Method::Cvm {
                     1
@@ -179,10 +181,7 @@ pub fn evaluate(
         ..cfg.params
     }
     .validate()?;
-    let cases: Vec<Case> = tracks
-        .iter()
-        .filter_map(|t| prepare(t, &cfg.settings))
-        .collect();
+    let cases: Vec<Case> = prepare_all(tracks, &cfg.settings);
     let results: Vec<PersonResult> = cases
         .par_iter()
         .map_init(
@@ -269,6 +268,7 @@ pub fn evaluate(
                 let avg = |f: fn(&StepErrors) -> f64| vals.iter().map(|e| f(e)).sum::<f64>() / n;
                 per_person.push(PersonRow {
                     person_id: case.id,
+                    window: case.window,
                     method,
                     horizon: (j + 1) as f64 * dt,
                     ade: avg(|e| e.ade),
@@ -327,21 +327,24 @@ pub fn summary_csv(rows: &[SummaryRow]) -> String {
     s
 }
 
-/// The per-person CSV text.
+/// The per-person CSV text; with windows (any row's window above 0) a `window` column
+/// follows `person_id`.
 pub fn per_person_csv(rows: &[PersonRow]) -> String {
-    let mut s = String::from("person_id,method,horizon,ade,fde,min_ade,min_fde,samples_reaching\n");
+    let windows = rows.iter().any(|r| r.window > 0);
+    let mut s = String::from(if windows {
+        "person_id,window,method,horizon,ade,fde,min_ade,min_fde,samples_reaching\n"
+    } else {
+        "person_id,method,horizon,ade,fde,min_ade,min_fde,samples_reaching\n"
+    });
     for r in rows {
+        let _ = write!(s, "{},", r.person_id);
+        if windows {
+            let _ = write!(s, "{},", r.window);
+        }
         let _ = writeln!(
             s,
-            "{},{},{:.1},{:.6},{:.6},{:.6},{:.6},{}",
-            r.person_id,
-            r.method,
-            r.horizon,
-            r.ade,
-            r.fde,
-            r.min_ade,
-            r.min_fde,
-            r.samples_reaching
+            "{},{:.1},{:.6},{:.6},{:.6},{:.6},{}",
+            r.method, r.horizon, r.ade, r.fde, r.min_ade, r.min_fde, r.samples_reaching
         );
     }
     s
