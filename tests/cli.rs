@@ -116,7 +116,21 @@ fn predict_writes_one_persons_samples() {
         "{stdout}"
     );
     let csv = std::fs::read_to_string(&out).unwrap();
-    assert!(csv.starts_with("sample,step,t,x,y\n"));
+    assert!(csv.starts_with("sample,step,t,x,y,score\n"));
+    // one score per sample, and the sample named most likely has the highest
+    let mut scores = std::collections::BTreeMap::new();
+    for l in csv.lines().skip(1) {
+        let f: Vec<&str> = l.split(',').collect();
+        let v: f64 = f[5].parse().unwrap();
+        assert_eq!(*scores.entry(f[0].to_string()).or_insert(v), v, "{l}");
+    }
+    let named = stdout
+        .split("the most likely is sample ")
+        .nth(1)
+        .and_then(|r| r.split(')').next())
+        .unwrap_or_else(|| panic!("{stdout}"));
+    let top = scores.values().copied().fold(f64::NEG_INFINITY, f64::max);
+    assert_eq!(scores[named], top, "{stdout}");
     let samples: std::collections::BTreeSet<&str> = csv
         .lines()
         .skip(1)

@@ -68,6 +68,7 @@ fn run(dataset: &str, map: &str, tracks: &str, seeds: usize) -> Vec<SummaryRow> 
         },
         seeds,
         methods: vec![Method::Cliff, Method::Cvm],
+        options: Default::default(),
     };
     let report = evaluate(&map, &tracks, &cfg, &|| {}).unwrap();
     let expected_people = if dataset == "thor1" { 62 } else { 90 };

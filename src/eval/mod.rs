@@ -12,6 +12,7 @@
 //!     params: Params::default(),     // k 20, beta 1, radius 0.7071
 //!     seeds: 20,
 //!     methods: vec![Method::Cliff, Method::Cvm],
+//!     options: Default::default(),   // the paper's method
 //! };
 //! let report = evaluate(&map, &tracks, &cfg, &|| {})?;
 //! print!("{}", cliff::eval::summary_table(&report.summary, &[2.0, 4.0, 6.0, 8.0, 10.0, 12.0]));

@@ -11,7 +11,9 @@ use cliff::eval::dataset::{Format, Track, keep_time_range};
 use cliff::eval::protocol::{Case, Protocol, Settings, prepare};
 use cliff::eval::{EvalConfig, evaluate, person_seed, summary_table, write_reports};
 use cliff::map::CliffMap;
-use cliff::predict::{HeadingRule, Method, Params, TrajectoryBatch, predict, steps_for};
+use cliff::predict::{
+    HeadingRule, Method, Options, Params, TrajectoryBatch, predict_with, steps_for,
+};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 
 use crate::map_cmd::load_map;
@@ -54,6 +56,14 @@ pub struct PredictionArgs {
     /// (0: back to back, every obs + horizon seconds).
     #[arg(long, default_value_t = 0.0, value_parser = non_negative)]
     pub window_every: f64,
+    /// Speed kernel (beyond the paper): the speed moves towards speeds drawn from the map,
+    /// `v += exp(-speed_beta (r - v)^2) (r - v)`; 0 keeps the observed speed (the paper).
+    #[arg(long, default_value_t = 0.0, value_parser = non_negative)]
+    pub speed_beta: f64,
+    /// Seconds a sample goes on at constant velocity where the map has no data (beyond
+    /// the paper); 0 stops it there (the paper).
+    #[arg(long, default_value_t = 0.0, value_parser = non_negative)]
+    pub coast: f64,
 }
 
 fn non_negative(s: &str) -> Result<f64, String> {
@@ -90,6 +100,14 @@ impl PredictionArgs {
             sigma: self.sigma,
             window_every: self.window_every,
             ..Settings::default()
+        }
+    }
+
+    pub(crate) fn options(&self, scores: bool) -> Options {
+        Options {
+            speed_beta: self.speed_beta,
+            coast: self.coast,
+            scores,
         }
     }
 
@@ -238,6 +256,7 @@ pub fn run_eval(a: EvalArgs) -> Result<()> {
         params: a.prediction.params(Method::Cliff, 0),
         seeds: a.seeds.max(1),
         methods: a.methods.clone(),
+        options: a.prediction.options(false),
     };
     let progress = LateProgress::new(tracks.len() as u64, "evaluating");
     let t0 = Instant::now();
@@ -298,8 +317,14 @@ pub(crate) fn predict_case(
         horizon: case.steps as f64 * prediction.dt,
         ..prediction.params(method, person_seed(seed, case.seed_key()))
     };
-    predict(map, std::slice::from_ref(&case.start), &params, batch)
-        .with_context(|| format!("predicting person {}", case.id))?;
+    predict_with(
+        map,
+        std::slice::from_ref(&case.start),
+        &params,
+        &prediction.options(true),
+        batch,
+    )
+    .with_context(|| format!("predicting person {}", case.id))?;
     Ok(params)
 }
 
@@ -320,12 +345,20 @@ pub fn run_predict(a: PredictArgs) -> Result<()> {
     })?;
     let mut batch = TrajectoryBatch::new();
     let params = predict_case(&map, &case, &a.prediction, a.method, a.seed, &mut batch)?;
-    let mut out = String::from("sample,step,t,x,y\n");
+    // score: the sample's log-likelihood under the map (the same on each of its rows)
+    let mut out = String::from("sample,step,t,x,y,score\n");
     use std::fmt::Write as _;
     for s in 0..params.k {
+        let score = batch.score(0, s).unwrap_or(f32::NAN);
         for (j, p) in batch.sample(0, s).iter().enumerate() {
             let t = case.start.time + (j + 1) as f64 * params.dt;
-            let _ = writeln!(out, "{s},{},{t:.3},{:.4},{:.4}", j + 1, p[0], p[1]);
+            let _ = writeln!(
+                out,
+                "{s},{},{t:.3},{:.4},{:.4},{score:.3}",
+                j + 1,
+                p[0],
+                p[1]
+            );
         }
     }
     match &a.out {
@@ -335,7 +368,7 @@ pub fn run_predict(a: PredictArgs) -> Result<()> {
                 .filter(|&s| batch.len(0, s) == case.steps)
                 .count();
             println!(
-                "person {}: start ({:.2}, {:.2}) at t {:.2}, speed {:.2} m/s, heading {:.1} deg; {} samples of {} steps ({} reach the end); wrote {}",
+                "person {}: start ({:.2}, {:.2}) at t {:.2}, speed {:.2} m/s, heading {:.1} deg; {} samples of {} steps ({} reach the end, the most likely is sample {}); wrote {}",
                 case.id,
                 case.start.position.x,
                 case.start.position.y,
@@ -345,6 +378,7 @@ pub fn run_predict(a: PredictArgs) -> Result<()> {
                 params.k,
                 case.steps,
                 reached,
+                batch.best_sample(0).unwrap_or(0),
                 path.display()
             );
         }
