@@ -360,3 +360,49 @@ fn magni_map_from_first_half_windows_over_second_half() {
     );
     let _ = std::fs::remove_dir_all(&out);
 }
+
+/// `--full-horizon-only`: the same people at every horizon (ATC dev, 50 s).
+#[test]
+fn full_horizon_only_keeps_the_same_people_at_every_horizon() {
+    let out = tmp("full");
+    let dev: Vec<String> = [9, 11, 13, 15, 17, 19]
+        .iter()
+        .map(|h| data(&format!("atc/dev/atc-1024-{h}_test.csv")))
+        .collect();
+    // constant velocity (no map needed: the built-in demo map is loaded and not used)
+    let mut args = vec!["eval", "--tracks"];
+    args.extend(dev.iter().map(String::as_str));
+    args.extend([
+        "--format",
+        "atc",
+        "--methods",
+        "cvm",
+        "--dt",
+        "1",
+        "--horizon",
+        "50",
+        "--radius",
+        "1",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let run = |extra: &[&str]| {
+        let mut a = args.clone();
+        a.extend_from_slice(extra);
+        let o = cliff(&a);
+        assert!(o.status.success(), "{}", text(&o).1);
+        let summary = std::fs::read_to_string(out.join("summary.csv")).unwrap();
+        summary
+            .lines()
+            .skip(1)
+            .map(|l| l.split(',').nth(2).unwrap().parse::<f64>().unwrap())
+            .collect::<Vec<f64>>()
+    };
+    let people = run(&[]);
+    // without the flag, fewer people at longer horizons
+    assert!(people[0] > 2.0 * people[49], "{people:?}");
+    let same = run(&["--full-horizon-only"]);
+    assert_eq!(same.len(), 50);
+    assert!(same.iter().all(|p| *p == people[49]), "{same:?}");
+    let _ = std::fs::remove_dir_all(&out);
+}

@@ -77,6 +77,9 @@ pub struct Settings {
     /// Windows protocol: a new window every this many seconds along a track; 0 (the
     /// default) means back to back, every `obs + horizon` seconds.
     pub window_every: f64,
+    /// [`prepare_all`] keeps only the people (or windows) whose ground truth lasts the
+    /// whole horizon, so that every horizon is evaluated on the same people.
+    pub full_horizon_only: bool,
 }
 
 impl Default for Settings {
@@ -91,6 +94,7 @@ impl Default for Settings {
             idle_distance: 1.0,
             idle_window: 4.0,
             window_every: 0.0,
+            full_horizon_only: false,
         }
     }
 }
@@ -170,8 +174,18 @@ pub fn prepare(track: &Track, s: &Settings) -> Option<Case> {
 }
 
 /// Every case the protocol makes of `tracks`: one per kept person, or, with
-/// [`Protocol::Windows`], one per kept window, in track order.
+/// [`Protocol::Windows`], one per kept window, in track order (with
+/// [`Settings::full_horizon_only`], only those with the whole horizon of ground truth).
 pub fn prepare_all(tracks: &[Track], s: &Settings) -> Vec<Case> {
+    let mut cases = prepare_each(tracks, s);
+    if s.full_horizon_only {
+        let full = steps_for(s.horizon, s.dt);
+        cases.retain(|c| c.steps >= full);
+    }
+    cases
+}
+
+fn prepare_each(tracks: &[Track], s: &Settings) -> Vec<Case> {
     match s.protocol {
         Protocol::Windows => {
             let mut out = Vec::new();

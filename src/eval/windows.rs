@@ -196,6 +196,14 @@ mod tests {
         assert_ne!(cases[0].seed_key(), cases[1].seed_key());
         // the first window is what `prepare` gives
         assert_eq!(prepare(&t, &challenge()).unwrap(), cases[0]);
+        // only the windows with 4.8 s of ground truth: the last one (from 36 s) is shorter
+        let full = Settings {
+            full_horizon_only: true,
+            ..challenge()
+        };
+        let kept = prepare_all(std::slice::from_ref(&t), &full);
+        assert_eq!(kept.len(), 9);
+        assert!(kept.iter().all(|c| c.steps == 12));
         // back to back (window_every 0): starts at 0, 8, ..., 32
         let s = Settings {
             window_every: 0.0,

@@ -60,6 +60,10 @@ pub struct PredictionArgs {
     /// `v += exp(-speed_beta (r - v)^2) (r - v)`; 0 keeps the observed speed (the paper).
     #[arg(long, default_value_t = 0.0, value_parser = non_negative)]
     pub speed_beta: f64,
+    /// Evaluate only the people (or windows) whose ground truth lasts the whole
+    /// horizon: the same people at every horizon.
+    #[arg(long)]
+    pub full_horizon_only: bool,
     /// Seconds a sample goes on at constant velocity where the map has no data (beyond
     /// the paper); 0 stops it there (the paper).
     #[arg(long, default_value_t = 0.0, value_parser = non_negative)]
@@ -99,6 +103,7 @@ impl PredictionArgs {
             horizon: self.horizon,
             sigma: self.sigma,
             window_every: self.window_every,
+            full_horizon_only: self.full_horizon_only,
             ..Settings::default()
         }
     }
