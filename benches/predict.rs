@@ -6,6 +6,8 @@
 //! * `atc_person`: the first ATC dev person (hour 13, seconds protocol) with 50 s of
 //!   ground truth, 20 samples, 50 s at 1 s, radius 1, on atc/cliffmap-20121024.csv.
 //! * `cvm_thor1_person`: constant velocity on the THÖR1 person, for scale.
+//! * `..._scores`: the same with a score per sample ([`Options::scores`]); `..._speed_scores`
+//!   also with the speed kernel (speed_beta 1) and coasting (4 s).
 //!
 //! Run: `cargo bench --bench predict`
 
@@ -15,7 +17,7 @@ use std::path::{Path, PathBuf};
 use cliff::eval::dataset::{Format, read_tracks};
 use cliff::eval::protocol::{Case, Protocol, Settings, prepare};
 use cliff::map::CliffMap;
-use cliff::predict::{Method, Params, TrajectoryBatch, predict};
+use cliff::predict::{Method, Options, Params, TrajectoryBatch, predict, predict_with};
 use criterion::{Criterion, criterion_group, criterion_main};
 
 fn data(p: &str) -> PathBuf {
@@ -67,6 +69,37 @@ fn bench(c: &mut Criterion) {
             black_box(batch.lens()[0])
         })
     });
+    let scores = Options {
+        scores: true,
+        ..Options::default()
+    };
+    let speed_scores = Options {
+        speed_beta: 1.0,
+        coast: 4.0,
+        scores: true,
+    };
+    for (name, opts) in [
+        ("thor1_person_k20_30steps_scores", scores),
+        ("thor1_person_k20_30steps_speed_scores", speed_scores),
+    ] {
+        c.bench_function(name, |b| {
+            b.iter(|| {
+                seed += 1;
+                predict_with(
+                    &thor_map,
+                    black_box(std::slice::from_ref(&thor.start)),
+                    &Params {
+                        seed,
+                        ..thor_params
+                    },
+                    &opts,
+                    &mut batch,
+                )
+                .unwrap();
+                black_box(batch.lens()[0])
+            })
+        });
+    }
     c.bench_function("cvm_thor1_person_k20_30steps", |b| {
         b.iter(|| {
             predict(
@@ -118,6 +151,25 @@ fn bench(c: &mut Criterion) {
             black_box(batch.lens()[0])
         })
     });
+    for (name, opts) in [
+        ("atc_person_k20_50steps_scores", scores),
+        ("atc_person_k20_50steps_speed_scores", speed_scores),
+    ] {
+        c.bench_function(name, |b| {
+            b.iter(|| {
+                seed += 1;
+                predict_with(
+                    &atc_map,
+                    black_box(std::slice::from_ref(&atc.start)),
+                    &Params { seed, ..atc_params },
+                    &opts,
+                    &mut batch,
+                )
+                .unwrap();
+                black_box(batch.lens()[0])
+            })
+        });
+    }
 }
 
 criterion_group!(benches, bench);

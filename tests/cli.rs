@@ -116,7 +116,21 @@ fn predict_writes_one_persons_samples() {
         "{stdout}"
     );
     let csv = std::fs::read_to_string(&out).unwrap();
-    assert!(csv.starts_with("sample,step,t,x,y\n"));
+    assert!(csv.starts_with("sample,step,t,x,y,score\n"));
+    // one score per sample, and the sample named most likely has the highest
+    let mut scores = std::collections::BTreeMap::new();
+    for l in csv.lines().skip(1) {
+        let f: Vec<&str> = l.split(',').collect();
+        let v: f64 = f[5].parse().unwrap();
+        assert_eq!(*scores.entry(f[0].to_string()).or_insert(v), v, "{l}");
+    }
+    let named = stdout
+        .split("the most likely is sample ")
+        .nth(1)
+        .and_then(|r| r.split(')').next())
+        .unwrap_or_else(|| panic!("{stdout}"));
+    let top = scores.values().copied().fold(f64::NEG_INFINITY, f64::max);
+    assert_eq!(scores[named], top, "{stdout}");
     let samples: std::collections::BTreeSet<&str> = csv
         .lines()
         .skip(1)
@@ -229,4 +243,166 @@ fn bad_input_gets_a_clear_error() {
         !o.status.success() && stderr.contains("person 999 is not in"),
         "{stderr}"
     );
+}
+
+/// THÖR-MAGNI end to end: a map from the recording's first 8 minutes, challenge windows
+/// (8 observed, 12 predicted rows at 0.4 s) over the last 8, a window every 4 s.
+#[test]
+fn magni_map_from_first_half_windows_over_second_half() {
+    let out = tmp("magni");
+    let rec = data("magni/magni-A-first-16min.csv");
+    let map = out.join("first8.cliff");
+    let o = cliff(&[
+        "map",
+        "build",
+        "--tracks",
+        &rec,
+        "--format",
+        "magni",
+        "--time-until",
+        "480",
+        "--grid",
+        "0.5",
+        "--radius",
+        "0.5",
+        "--out",
+        map.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", text(&o).1);
+    let eval = |extra: &[&str]| {
+        let mut args = vec![
+            "eval",
+            "--map",
+            map.to_str().unwrap(),
+            "--tracks",
+            &rec,
+            "--protocol",
+            "windows",
+            "--obs",
+            "3.2",
+            "--dt",
+            "0.4",
+            "--horizon",
+            "4.8",
+            "--window-every",
+            "4",
+            "--seeds",
+            "2",
+            "--out",
+            out.to_str().unwrap(),
+        ];
+        args.extend_from_slice(extra);
+        let o = cliff(&args);
+        let (stdout, stderr) = text(&o);
+        assert!(o.status.success(), "{stderr}");
+        let summary = std::fs::read_to_string(out.join("summary.csv")).unwrap();
+        let per_person = std::fs::read_to_string(out.join("per_person.csv")).unwrap();
+        (stdout, summary, per_person)
+    };
+    let (stdout, summary, per_person) = eval(&["--format", "magni", "--time-from", "480"]);
+    // the windows of the second half only: people 2 and 7 left before 480 s
+    assert!(stdout.contains("windows of 7 people"), "{stdout}");
+    assert!(
+        per_person.starts_with("person_id,window,method,"),
+        "{per_person}"
+    );
+    for line in per_person.lines().skip(1) {
+        let f: Vec<&str> = line.split(',').collect();
+        assert!(!["2", "7"].contains(&f[0]), "{line}");
+        // windows every 4 s from the track's first row at or after 480 s: numbers stay
+        // small (8 minutes / 4 s = 120)
+        let w: u32 = f[1].parse().unwrap();
+        assert!((1..=121).contains(&w), "{line}");
+    }
+    // 12 predicted rows: the summary reaches 4.8 s, not beyond
+    assert!(summary.contains("cliff,4.8,"), "{summary}");
+    assert!(!summary.contains(",5.2,"), "{summary}");
+    // the same recording through the named-column reader gives the same report
+    let (stdout2, summary2, _) = eval(&[
+        "--format",
+        "csv",
+        "--columns",
+        "t=Time,id=ag_id,x=x,y=y,speed=speed,vx=x_speed,vy=y_speed",
+        "--time-from",
+        "480",
+    ]);
+    assert_eq!(summary2, summary);
+    assert_eq!(stdout2.lines().nth(1), stdout.lines().nth(1));
+    // a mapping for a headerless format, or a column the file lacks, is refused clearly
+    let o = cliff(&[
+        "eval",
+        "--tracks",
+        &rec,
+        "--format",
+        "thor",
+        "--columns",
+        "t=Time,id=ag_id,x=x,y=y",
+    ]);
+    assert!(!o.status.success());
+    assert!(
+        text(&o).1.contains("needs a file with a header row"),
+        "{}",
+        text(&o).1
+    );
+    let o = cliff(&[
+        "eval",
+        "--tracks",
+        &rec,
+        "--format",
+        "csv",
+        "--columns",
+        "t=Time,id=agent,x=x,y=y",
+    ]);
+    assert!(
+        text(&o).1.contains("no column named 'agent' in the header"),
+        "{}",
+        text(&o).1
+    );
+    let _ = std::fs::remove_dir_all(&out);
+}
+
+/// `--full-horizon-only`: the same people at every horizon (ATC dev, 50 s).
+#[test]
+fn full_horizon_only_keeps_the_same_people_at_every_horizon() {
+    let out = tmp("full");
+    let dev: Vec<String> = [9, 11, 13, 15, 17, 19]
+        .iter()
+        .map(|h| data(&format!("atc/dev/atc-1024-{h}_test.csv")))
+        .collect();
+    // constant velocity (no map needed: the built-in demo map is loaded and not used)
+    let mut args = vec!["eval", "--tracks"];
+    args.extend(dev.iter().map(String::as_str));
+    args.extend([
+        "--format",
+        "atc",
+        "--methods",
+        "cvm",
+        "--dt",
+        "1",
+        "--horizon",
+        "50",
+        "--radius",
+        "1",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let run = |extra: &[&str]| {
+        let mut a = args.clone();
+        a.extend_from_slice(extra);
+        let o = cliff(&a);
+        assert!(o.status.success(), "{}", text(&o).1);
+        let summary = std::fs::read_to_string(out.join("summary.csv")).unwrap();
+        summary
+            .lines()
+            .skip(1)
+            .map(|l| l.split(',').nth(2).unwrap().parse::<f64>().unwrap())
+            .collect::<Vec<f64>>()
+    };
+    let people = run(&[]);
+    // without the flag, fewer people at longer horizons
+    assert!(people[0] > 2.0 * people[49], "{people:?}");
+    let same = run(&["--full-horizon-only"]);
+    assert_eq!(same.len(), 50);
+    assert!(same.iter().all(|p| *p == people[49]), "{same:?}");
+    let _ = std::fs::remove_dir_all(&out);
 }

@@ -320,6 +320,7 @@ fn predictions_with_the_built_map_are_as_good_as_with_the_shipped_map() {
         },
         seeds: 20,
         methods: vec![Method::Cliff],
+        options: Default::default(),
     };
     let at_50 = |map: &CliffMap| -> SummaryRow {
         let report = evaluate(map, &tracks, &cfg, &|| {}).unwrap();

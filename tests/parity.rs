@@ -72,6 +72,7 @@ fn run(dataset: &str, map: &str, tracks: &str, seeds: usize) -> Vec<SummaryRow> 
         },
         seeds,
         methods: vec![Method::Cliff, Method::Cvm],
+        options: Default::default(),
     };
     let report = evaluate(&map, &tracks, &cfg, &|| {}).unwrap();
     let expected_people = if dataset == "thor1" { 62 } else { 90 };
@@ -234,6 +235,7 @@ fn atc_dev_at_one_hertz_matches_the_reference() {
         },
         seeds: 20,
         methods: vec![Method::Cliff, Method::Cvm],
+        options: Default::default(),
     };
     let report = evaluate(&map, &tracks, &cfg, &|| {}).unwrap();
     let reference = atc_reference();

@@ -4,6 +4,8 @@
 //! `time, person_id, x, y, speed, motion_angle` (s, -, m, m, m/s, rad in (-pi, pi]).
 //! THÖR runs at 2.5 Hz with times from the start of the recording; ATC at 1 Hz with
 //! unix times. Rows are grouped into [`Track`]s by person, in order of first appearance.
+//! Files with a header row and named columns (THÖR-MAGNI, [`Format::Magni`], or any
+//! CSV, [`Format::Csv`]) are read by [`super::columns`].
 //!
 //! ```
 //! use cliff::eval::dataset::{parse_tracks, Format};
@@ -20,6 +22,7 @@ use std::str::FromStr;
 
 use glam::DVec2;
 
+use super::columns::{Columns, parse_named};
 use crate::bounded_read::{line_column, read_at_most};
 
 /// Trajectory file formats.
@@ -29,6 +32,12 @@ pub enum Format {
     Thor,
     /// ATC: `unix_time, person_id, x, y, speed, motion_angle`, 1 Hz.
     Atc,
+    /// THÖR-MAGNI: a header row, columns by name
+    /// ([`Columns::magni`](super::columns::Columns::magni)).
+    Magni,
+    /// A CSV with a header row and named columns; without a mapping
+    /// ([`super::columns`]) the columns `t, id, x, y`.
+    Csv,
 }
 
 impl FromStr for Format {
@@ -37,8 +46,10 @@ impl FromStr for Format {
         match s.trim().to_ascii_lowercase().as_str() {
             "thor" => Ok(Format::Thor),
             "atc" => Ok(Format::Atc),
+            "magni" | "thor-magni" => Ok(Format::Magni),
+            "csv" => Ok(Format::Csv),
             other => Err(format!(
-                "unknown track format '{other}' (expected thor or atc)"
+                "unknown track format '{other}' (expected thor, atc, magni or csv)"
             )),
         }
     }
@@ -49,6 +60,8 @@ impl fmt::Display for Format {
         f.write_str(match self {
             Format::Thor => "thor",
             Format::Atc => "atc",
+            Format::Magni => "magni",
+            Format::Csv => "csv",
         })
     }
 }
@@ -167,7 +180,12 @@ pub fn read_many(paths: &[impl AsRef<Path>], format: Format) -> Result<Vec<Track
 /// |x|, |y| <= [`MAX_POSITION`], 0 <= speed <= [`MAX_SPEED`],
 /// |angle| <= [`MAX_ANGLE`]; a person id is a whole number in `0..2^64`; a person's
 /// times strictly increase. Memory grows with the rows read, never with a value.
-pub fn parse_tracks(text: &str, file: &str, _format: Format) -> Result<Vec<Track>, DatasetError> {
+pub fn parse_tracks(text: &str, file: &str, format: Format) -> Result<Vec<Track>, DatasetError> {
+    match format {
+        Format::Thor | Format::Atc => {}
+        Format::Magni => return Ok(parse_named(text, file, &Columns::magni())?.tracks),
+        Format::Csv => return Ok(parse_named(text, file, &Columns::default())?.tracks),
+    }
     let err = |line: usize, column: usize, message: String| DatasetError::Parse {
         file: file.to_string(),
         line,
@@ -268,6 +286,23 @@ pub fn parse_tracks(text: &str, file: &str, _format: Format) -> Result<Vec<Track
         tracks[i].rows.push(row);
     }
     Ok(tracks)
+}
+
+/// Keep only the rows with `from <= t < until` (times as in the file), and drop the
+/// tracks left empty: for building a map from one part of a recording and evaluating on
+/// another.
+///
+/// ```
+/// use cliff::eval::dataset::{parse_tracks, keep_time_range, Format};
+/// let mut t = parse_tracks("0,1,0,0,1,0\n1,1,1,0,1,0\n2,1,2,0,1,0\n0,2,5,5,1,0\n", "a", Format::Atc).unwrap();
+/// keep_time_range(&mut t, 1.0, 3.0);
+/// assert_eq!((t.len(), t[0].rows.len()), (1, 2));
+/// ```
+pub fn keep_time_range(tracks: &mut Vec<Track>, from: f64, until: f64) {
+    for t in tracks.iter_mut() {
+        t.rows.retain(|r| r.t >= from && r.t < until);
+    }
+    tracks.retain(|t| !t.rows.is_empty());
 }
 
 #[cfg(test)]

@@ -2,7 +2,9 @@
 //!
 //! For one person and step `j` (horizon `j * dt`), over the samples that reached step
 //! `j`: ADE is the mean over samples of the mean error over steps `1..=j`, FDE the mean
-//! error at step `j`; minADE and minFDE (top-k) are the smallest per-sample values.
+//! error at step `j`; minADE and minFDE (top-k) are the smallest per-sample values;
+//! top-1 ADE and FDE are those of the best-ranked sample (highest score, see
+//! [`crate::predict::Options::scores`]) among the samples that reached step `j`.
 
 use glam::DVec2;
 
@@ -20,6 +22,10 @@ pub struct StepErrors {
     pub min_ade: f64,
     /// Smallest final displacement of a reaching sample.
     pub min_fde: f64,
+    /// Average displacement of the best-scored reaching sample (NaN without scores).
+    pub top1_ade: f64,
+    /// Final displacement of the best-scored reaching sample (NaN without scores).
+    pub top1_fde: f64,
     /// How many samples reached this step.
     pub reaching: u32,
 }
@@ -33,6 +39,9 @@ pub struct Scratch {
     min_ade: Vec<f64>,
     min_fde: Vec<f64>,
     reaching: Vec<u32>,
+    top_score: Vec<f32>,
+    top_ade: Vec<f64>,
+    top_fde: Vec<f64>,
 }
 
 /// Ground truth at each predicted step of `case` (`None` past the last row).
@@ -42,12 +51,14 @@ pub fn truth_per_step(case: &Case, dt: f64, out: &mut Vec<Option<DVec2>>) {
 }
 
 /// Errors at every step `1..=case.steps` of `k` samples, given as `k` slices of valid
-/// positions. Writes one entry per step into `out` (`None` where no sample reached the
+/// positions, with their scores (one per sample; empty when not scored: top-1 errors are
+/// NaN then). Writes one entry per step into `out` (`None` where no sample reached the
 /// step or the ground truth has ended).
 pub fn person_errors<'a>(
     case: &Case,
     dt: f64,
     samples: impl Iterator<Item = &'a [Point]>,
+    scores: &[f32],
     scratch: &mut Scratch,
     out: &mut Vec<Option<StepErrors>>,
 ) {
@@ -63,7 +74,14 @@ pub fn person_errors<'a>(
     }
     scratch.reaching.clear();
     scratch.reaching.resize(n, 0);
-    for sample in samples {
+    scratch.top_score.clear();
+    scratch.top_score.resize(n, f32::NEG_INFINITY);
+    for v in [&mut scratch.top_ade, &mut scratch.top_fde] {
+        v.clear();
+        v.resize(n, f64::NAN);
+    }
+    for (i, sample) in samples.enumerate() {
+        let score = scores.get(i).copied();
         let mut cum = 0.0;
         for (j, p) in sample.iter().take(n).enumerate() {
             // A predicted time after the last row ends this sample's error list.
@@ -76,6 +94,13 @@ pub fn person_errors<'a>(
             scratch.min_ade[j] = scratch.min_ade[j].min(ade);
             scratch.min_fde[j] = scratch.min_fde[j].min(e);
             scratch.reaching[j] += 1;
+            if let Some(sc) = score
+                && (sc > scratch.top_score[j] || scratch.top_ade[j].is_nan())
+            {
+                scratch.top_score[j] = sc;
+                scratch.top_ade[j] = ade;
+                scratch.top_fde[j] = e;
+            }
         }
     }
     out.clear();
@@ -86,6 +111,8 @@ pub fn person_errors<'a>(
             fde: scratch.sum_fde[j] / r as f64,
             min_ade: scratch.min_ade[j],
             min_fde: scratch.min_fde[j],
+            top1_ade: scratch.top_ade[j],
+            top1_fde: scratch.top_fde[j],
             reaching: r,
         })
     }));
@@ -120,6 +147,7 @@ mod tests {
             future,
             horizon: 5.0,
             steps: 5,
+            window: 0,
         };
         let a: Vec<Point> = (1..=5).map(|i| [i as f32, 0.0]).collect();
         let b: Vec<Point> = (1..=2).map(|i| [i as f32, 1.0]).collect();
@@ -128,6 +156,7 @@ mod tests {
             &case,
             1.0,
             [a.as_slice(), b.as_slice()].into_iter(),
+            &[],
             &mut Scratch::default(),
             &mut out,
         );
@@ -138,6 +167,23 @@ mod tests {
         );
         let s3 = out[2].unwrap();
         assert_eq!((s3.ade, s3.reaching), (0.0, 1));
+        assert!(s1.top1_ade.is_nan() && s1.top1_fde.is_nan());
+        // ranked: B (off by 1 m) scores higher; where B has stopped, A is the best left
+        let mut ranked = vec![];
+        person_errors(
+            &case,
+            1.0,
+            [a.as_slice(), b.as_slice()].into_iter(),
+            &[-3.0, -1.0],
+            &mut Scratch::default(),
+            &mut ranked,
+        );
+        let r1 = ranked[0].unwrap();
+        assert_eq!((r1.top1_ade, r1.top1_fde, r1.ade), (1.0, 1.0, s1.ade));
+        assert_eq!(
+            (ranked[2].unwrap().top1_ade, ranked[2].unwrap().top1_fde),
+            (0.0, 0.0)
+        );
         // ground truth ends at t = 5: step 5 has a value, nothing beyond
         assert!(out[4].is_some());
         assert_eq!(out.len(), 5);
@@ -146,6 +192,7 @@ mod tests {
             &case,
             1.0,
             std::iter::empty(),
+            &[],
             &mut Scratch::default(),
             &mut out,
         );

@@ -12,16 +12,19 @@
 //!     params: Params::default(),     // k 20, beta 1, radius 0.7071
 //!     seeds: 20,
 //!     methods: vec![Method::Cliff, Method::Cvm],
+//!     options: Default::default(),   // the paper's method
 //! };
 //! let report = evaluate(&map, &tracks, &cfg, &|| {})?;
 //! print!("{}", cliff::eval::summary_table(&report.summary, &[2.0, 4.0, 6.0, 8.0, 10.0, 12.0]));
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
+pub mod columns;
 pub mod dataset;
 pub mod metrics;
 pub mod protocol;
 mod report;
+pub mod windows;
 
 pub use report::{
     EvalConfig, EvalReport, PersonRow, SUMMARY_HEADER, SummaryRow, evaluate, per_person_csv,

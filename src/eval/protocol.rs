@@ -4,6 +4,8 @@
 //!   observe `n` rows, start at row `n`, horizon floored to whole seconds, 10-row idle
 //!   filter). Used for parity on THÖR and comparison with the paper.
 //! * [`Protocol::Seconds`]: the same ideas stated in time, for data at any rate.
+//! * [`Protocol::Windows`]: the seconds rules applied to windows along long recordings
+//!   (see [`super::windows`]); [`prepare_all`] gives every window.
 //!
 //! See `../shared/docs/evaluation-protocol.md` for the rules.
 
@@ -24,6 +26,9 @@ pub enum Protocol {
     /// The same rules stated in seconds (default for new data).
     #[default]
     Seconds,
+    /// The seconds rules in a window every [`Settings::window_every`] seconds along each
+    /// track (long recordings such as THÖR-MAGNI).
+    Windows,
 }
 
 impl FromStr for Protocol {
@@ -32,8 +37,9 @@ impl FromStr for Protocol {
         match s.trim().to_ascii_lowercase().as_str() {
             "reference" | "ref" => Ok(Protocol::Reference),
             "seconds" | "time" => Ok(Protocol::Seconds),
+            "windows" | "window" => Ok(Protocol::Windows),
             other => Err(format!(
-                "unknown protocol '{other}' (expected reference or seconds)"
+                "unknown protocol '{other}' (expected reference, seconds or windows)"
             )),
         }
     }
@@ -44,6 +50,7 @@ impl fmt::Display for Protocol {
         f.write_str(match self {
             Protocol::Reference => "reference",
             Protocol::Seconds => "seconds",
+            Protocol::Windows => "windows",
         })
     }
 }
@@ -69,6 +76,12 @@ pub struct Settings {
     /// Idle filter window (s) of the `seconds` protocol. The reference protocol ignores
     /// it and uses [`REFERENCE_IDLE_ROWS`] rows whatever the rate, as published.
     pub idle_window: f64,
+    /// Windows protocol: a new window every this many seconds along a track; 0 (the
+    /// default) means back to back, every `obs + horizon` seconds.
+    pub window_every: f64,
+    /// [`prepare_all`] keeps only the people (or windows) whose ground truth lasts the
+    /// whole horizon, so that every horizon is evaluated on the same people.
+    pub full_horizon_only: bool,
 }
 
 impl Default for Settings {
@@ -82,6 +95,8 @@ impl Default for Settings {
             sigma: DEFAULT_SIGMA,
             idle_distance: 1.0,
             idle_window: 4.0,
+            window_every: 0.0,
+            full_horizon_only: false,
         }
     }
 }
@@ -112,6 +127,9 @@ pub struct Case {
     pub horizon: f64,
     /// Predicted steps for this person.
     pub steps: usize,
+    /// Windows protocol: the window's number along the track (1 for the window starting
+    /// at the track's first row); 0 for the other protocols.
+    pub window: u32,
 }
 
 impl Case {
@@ -119,6 +137,12 @@ impl Case {
     /// rows; `None` outside the future rows.
     pub fn truth_at(&self, t: f64) -> Option<DVec2> {
         interpolate(&self.future, t)
+    }
+
+    /// The number a prediction's seed is mixed with: the person id, and for a window
+    /// also its number (so that every window draws its own samples).
+    pub fn seed_key(&self) -> u64 {
+        self.id ^ (u64::from(self.window) << 40)
     }
 }
 
@@ -146,6 +170,32 @@ pub fn prepare(track: &Track, s: &Settings) -> Option<Case> {
     match s.protocol {
         Protocol::Reference => prepare_reference(track, s),
         Protocol::Seconds => prepare_seconds(track, s),
+        Protocol::Windows => super::windows::first_window(track, s),
+    }
+}
+
+/// Every case the protocol makes of `tracks`: one per kept person, or, with
+/// [`Protocol::Windows`], one per kept window, in track order (with
+/// [`Settings::full_horizon_only`], only those with the whole horizon of ground truth).
+pub fn prepare_all(tracks: &[Track], s: &Settings) -> Vec<Case> {
+    let mut cases = prepare_each(tracks, s);
+    if s.full_horizon_only {
+        let full = steps_for(s.horizon, s.dt);
+        cases.retain(|c| c.steps >= full);
+    }
+    cases
+}
+
+fn prepare_each(tracks: &[Track], s: &Settings) -> Vec<Case> {
+    match s.protocol {
+        Protocol::Windows => {
+            let mut out = Vec::new();
+            for t in tracks {
+                super::windows::windows_of(t, s, &mut out);
+            }
+            out
+        }
+        _ => tracks.iter().filter_map(|t| prepare(t, s)).collect(),
     }
 }
 
@@ -187,10 +237,11 @@ fn prepare_reference(track: &Track, s: &Settings) -> Option<Case> {
         future: rows[obs..].to_vec(),
         horizon,
         steps,
+        window: 0,
     })
 }
 
-fn prepare_seconds(track: &Track, s: &Settings) -> Option<Case> {
+pub(super) fn prepare_seconds(track: &Track, s: &Settings) -> Option<Case> {
     let rows = &track.rows;
     let first = rows.first()?;
     let last_t = rows.last()?.t;
@@ -241,6 +292,7 @@ fn prepare_seconds(track: &Track, s: &Settings) -> Option<Case> {
         future: rows[si..].to_vec(),
         horizon,
         steps: steps_for(horizon, s.dt),
+        window: 0,
     })
 }
 

@@ -12,9 +12,9 @@ use rayon::prelude::*;
 
 use super::dataset::Track;
 use super::metrics::{Scratch, StepErrors, person_errors};
-use super::protocol::{Case, Settings, prepare};
+use super::protocol::{Case, Settings, prepare_all};
 use crate::map::CliffMap;
-use crate::predict::{Method, Params, PredictError, TrajectoryBatch, predict};
+use crate::predict::{Method, Options, Params, PredictError, TrajectoryBatch, predict_with};
 
 /// What to evaluate.
 #[derive(Debug, Clone, PartialEq)]
@@ -28,6 +28,9 @@ pub struct EvalConfig {
     pub seeds: usize,
     /// Methods, all on the same people.
     pub methods: Vec<Method>,
+    /// Options beyond the paper's method (all off: the paper's). Scores are always
+    /// computed, for the top-1 errors (they leave the samples as they are).
+    pub options: Options,
 }
 
 /// One row of the summary: a method at a horizon.
@@ -55,6 +58,10 @@ pub struct SummaryRow {
     pub min_ade_sd: f64,
     /// Standard deviation over seeds of the minFDE.
     pub min_fde_sd: f64,
+    /// Mean top-1 ADE (the best-scored sample; mean over seeds).
+    pub top1_ade: f64,
+    /// Mean top-1 FDE.
+    pub top1_fde: f64,
     /// Share of the people whose ground truth lasts this long that were predicted this far.
     pub reach: f64,
     /// Seeds run.
@@ -66,6 +73,8 @@ pub struct SummaryRow {
 pub struct PersonRow {
     /// Person id.
     pub person_id: u64,
+    /// Window number along the person's track (windows protocol; 0 otherwise).
+    pub window: u32,
     /// Method.
     pub method: Method,
     /// Horizon (s).
@@ -78,6 +87,10 @@ pub struct PersonRow {
     pub min_ade: f64,
     /// minFDE.
     pub min_fde: f64,
+    /// Top-1 ADE (the best-scored sample).
+    pub top1_ade: f64,
+    /// Top-1 FDE.
+    pub top1_fde: f64,
     /// Samples reaching this horizon (mean over seeds).
     pub samples_reaching: f64,
 }
@@ -87,7 +100,7 @@ pub struct PersonRow {
 pub struct EvalReport {
     /// People in the input.
     pub people_total: usize,
-    /// People the protocol kept.
+    /// People the protocol kept (windows, with the windows protocol).
     pub people_evaluated: usize,
     /// One row per method and horizon step, in method order then horizon.
     pub summary: Vec<SummaryRow>,
@@ -134,7 +147,7 @@ fn run_case(
                 method,
                 dt,
                 horizon: case.steps as f64 * dt,
-                seed: person_seed(seed as u64, case.id),
+                seed: person_seed(seed as u64, case.seed_key()),
                 // constant velocity draws nothing: one sample stands for all k
                 k: if method == Method::Cvm {
                     1
@@ -143,10 +156,15 @@ fn run_case(
                 },
                 ..cfg.params
             };
-            predict(
+            let options = Options {
+                scores: true,
+                ..cfg.options
+            };
+            predict_with(
                 map,
                 std::slice::from_ref(&case.start),
                 &params,
+                &options,
                 &mut w.batch,
             )?;
             let batch = &w.batch;
@@ -155,6 +173,7 @@ fn run_case(
                 case,
                 dt,
                 (0..params.k).map(|s| batch.sample(0, s)),
+                batch.scores(),
                 &mut w.scratch,
                 &mut out,
             );
@@ -173,16 +192,14 @@ pub fn evaluate(
     progress: &(dyn Fn() + Sync),
 ) -> Result<EvalReport, PredictError> {
     cfg.params.validate()?;
+    cfg.options.validate()?;
     Params {
         dt: cfg.settings.dt,
         horizon: cfg.settings.horizon,
         ..cfg.params
     }
     .validate()?;
-    let cases: Vec<Case> = tracks
-        .iter()
-        .filter_map(|t| prepare(t, &cfg.settings))
-        .collect();
+    let cases: Vec<Case> = prepare_all(tracks, &cfg.settings);
     let results: Vec<PersonResult> = cases
         .par_iter()
         .map_init(
@@ -204,8 +221,8 @@ pub fn evaluate(
     for (mi, &method) in cfg.methods.iter().enumerate() {
         let n_seeds = seeds_for(method, cfg.seeds);
         for j in 0..max_steps {
-            // per seed: (people, sums of ade, fde, min_ade, min_fde)
-            let mut per_seed = vec![[0.0f64; 5]; n_seeds];
+            // per seed: (people, sums of ade, fde, min_ade, min_fde, top1_ade, top1_fde)
+            let mut per_seed = vec![[0.0f64; 7]; n_seeds];
             let eligible = cases.iter().filter(|c| c.steps > j).count();
             let mut reached = 0usize;
             for r in &results {
@@ -217,15 +234,21 @@ pub fn evaluate(
                         acc[2] += e.fde;
                         acc[3] += e.min_ade;
                         acc[4] += e.min_fde;
+                        acc[5] += e.top1_ade;
+                        acc[6] += e.top1_fde;
                         any = true;
                     }
                 }
                 reached += any as usize;
             }
-            let means: Vec<[f64; 5]> = per_seed
+            let means: Vec<[f64; 7]> = per_seed
                 .iter()
                 .filter(|a| a[0] > 0.0)
-                .map(|a| [a[0], a[1] / a[0], a[2] / a[0], a[3] / a[0], a[4] / a[0]])
+                .map(|a| {
+                    let mut m = a.map(|v| v / a[0]);
+                    m[0] = a[0];
+                    m
+                })
                 .collect();
             if means.is_empty() {
                 continue;
@@ -236,6 +259,8 @@ pub fn evaluate(
             let (fde, fde_sd) = stat(2);
             let (min_ade, min_ade_sd) = stat(3);
             let (min_fde, min_fde_sd) = stat(4);
+            let (top1_ade, _) = stat(5);
+            let (top1_fde, _) = stat(6);
             summary.push(SummaryRow {
                 method,
                 horizon: (j + 1) as f64 * dt,
@@ -248,6 +273,8 @@ pub fn evaluate(
                 fde_sd,
                 min_ade_sd,
                 min_fde_sd,
+                top1_ade,
+                top1_fde,
                 reach: if eligible > 0 {
                     reached as f64 / eligible as f64
                 } else {
@@ -269,12 +296,15 @@ pub fn evaluate(
                 let avg = |f: fn(&StepErrors) -> f64| vals.iter().map(|e| f(e)).sum::<f64>() / n;
                 per_person.push(PersonRow {
                     person_id: case.id,
+                    window: case.window,
                     method,
                     horizon: (j + 1) as f64 * dt,
                     ade: avg(|e| e.ade),
                     fde: avg(|e| e.fde),
                     min_ade: avg(|e| e.min_ade),
                     min_fde: avg(|e| e.min_fde),
+                    top1_ade: avg(|e| e.top1_ade),
+                    top1_fde: avg(|e| e.top1_fde),
                     samples_reaching: vals.iter().map(|e| e.reaching as f64).sum::<f64>()
                         / n_seeds as f64,
                 });
@@ -298,8 +328,7 @@ fn mean_sd(v: impl Iterator<Item = f64> + Clone) -> (f64, f64) {
 }
 
 /// The summary CSV header.
-pub const SUMMARY_HEADER: &str =
-    "method,horizon,people,ade,fde,min_ade,min_fde,ade_sd,fde_sd,min_ade_sd,min_fde_sd,reach,seeds";
+pub const SUMMARY_HEADER: &str = "method,horizon,people,ade,fde,min_ade,min_fde,ade_sd,fde_sd,min_ade_sd,min_fde_sd,reach,seeds,top1_ade,top1_fde";
 
 /// The summary as CSV text (header row; horizon with one decimal).
 pub fn summary_csv(rows: &[SummaryRow]) -> String {
@@ -308,7 +337,7 @@ pub fn summary_csv(rows: &[SummaryRow]) -> String {
     for r in rows {
         let _ = writeln!(
             s,
-            "{},{:.1},{},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{:.4},{}",
+            "{},{:.1},{},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{:.4},{},{:.6},{:.6}",
             r.method,
             r.horizon,
             r.people,
@@ -321,27 +350,40 @@ pub fn summary_csv(rows: &[SummaryRow]) -> String {
             r.min_ade_sd,
             r.min_fde_sd,
             r.reach,
-            r.seeds
+            r.seeds,
+            r.top1_ade,
+            r.top1_fde
         );
     }
     s
 }
 
-/// The per-person CSV text.
+/// The per-person CSV text; with windows (any row's window above 0) a `window` column
+/// follows `person_id`.
 pub fn per_person_csv(rows: &[PersonRow]) -> String {
-    let mut s = String::from("person_id,method,horizon,ade,fde,min_ade,min_fde,samples_reaching\n");
+    let windows = rows.iter().any(|r| r.window > 0);
+    let mut s = String::from(if windows {
+        "person_id,window,method,horizon,ade,fde,min_ade,min_fde,samples_reaching,top1_ade,top1_fde\n"
+    } else {
+        "person_id,method,horizon,ade,fde,min_ade,min_fde,samples_reaching,top1_ade,top1_fde\n"
+    });
     for r in rows {
+        let _ = write!(s, "{},", r.person_id);
+        if windows {
+            let _ = write!(s, "{},", r.window);
+        }
         let _ = writeln!(
             s,
-            "{},{},{:.1},{:.6},{:.6},{:.6},{:.6},{}",
-            r.person_id,
+            "{},{:.1},{:.6},{:.6},{:.6},{:.6},{},{:.6},{:.6}",
             r.method,
             r.horizon,
             r.ade,
             r.fde,
             r.min_ade,
             r.min_fde,
-            r.samples_reaching
+            r.samples_reaching,
+            r.top1_ade,
+            r.top1_fde
         );
     }
     s

@@ -33,6 +33,7 @@ use std::f64::consts::TAU;
 use std::path::Path;
 use std::sync::Arc;
 
+use build::{Gauss2, floor_eigenvalues};
 use glam::DVec2;
 use rand::distr::Distribution;
 use rand::{Rng, RngExt};
@@ -214,6 +215,16 @@ struct DirectionComponent {
     sigma: f64,
 }
 
+/// Per-component speed entry, parallel to [`DirectionComponent`]: the speed given the
+/// direction draw `mu + sigma * z` is `mean + slope * z + sd * z2` (the conditional of
+/// the component's bivariate normal).
+#[derive(Debug, Clone, Copy)]
+struct SpeedComponent {
+    mean: f64,
+    slope: f64,
+    sd: f64,
+}
+
 /// Widest mixture whose locations get padded (see [`pad_components`]): more comparisons
 /// per draw than this cost more than the mispredicted branches they save.
 const MAX_PADDED_COMPONENTS: usize = 8;
@@ -229,6 +240,19 @@ fn pad_components(
     comp_start: Vec<u32>,
     table: Vec<DirectionComponent>,
 ) -> (Vec<u32>, Vec<DirectionComponent>) {
+    pad_with(comp_start, table, |last| DirectionComponent {
+        cum_weight: f64::INFINITY,
+        ..last
+    })
+}
+
+/// [`pad_components`] for any per-component table: the same padding decision, each
+/// location's entries followed by `filler(its last entry)`.
+fn pad_with<T: Copy>(
+    comp_start: Vec<u32>,
+    table: Vec<T>,
+    filler: impl Fn(T) -> T,
+) -> (Vec<u32>, Vec<T>) {
     let counts = comp_start.windows(2).map(|w| (w[1] - w[0]) as usize);
     let widest = counts.clone().max().unwrap_or(0);
     let locations = comp_start.len() - 1;
@@ -244,11 +268,7 @@ fn pad_components(
         starts.push(padded.len() as u32);
         let own = &table[w[0] as usize..w[1] as usize];
         padded.extend_from_slice(own);
-        let filler = DirectionComponent {
-            cum_weight: f64::INFINITY,
-            ..own[n - 1]
-        };
-        padded.extend(std::iter::repeat_n(filler, widest - n));
+        padded.extend(std::iter::repeat_n(filler(own[n - 1]), widest - n));
     }
     starts.push(padded.len() as u32);
     (starts, padded)
@@ -264,6 +284,14 @@ pub struct CliffMap {
     ratios: Vec<f64>,
     comp_start: Vec<u32>,
     table: Vec<DirectionComponent>,
+    /// Speeds given the direction draw, indexed like `table`.
+    speed: Vec<SpeedComponent>,
+    /// Densities for sample scores: location `i`'s components are
+    /// `density[density_start[i]..density_start[i + 1]]`.
+    density_start: Vec<u32>,
+    density: Vec<Gauss2>,
+    /// The same components for [`CliffMap::step_log_density`].
+    step_density: Vec<StepDensity>,
     report: MapReport,
     /// Neighbour tables built so far, one per sampling radius, under a memory budget.
     tables: TableCache,
@@ -278,6 +306,10 @@ impl Clone for CliffMap {
             ratios: self.ratios.clone(),
             comp_start: self.comp_start.clone(),
             table: self.table.clone(),
+            speed: self.speed.clone(),
+            density_start: self.density_start.clone(),
+            density: self.density.clone(),
+            step_density: self.step_density.clone(),
             report: self.report,
             tables: self.tables.clone(),
         }
@@ -413,9 +445,13 @@ impl CliffMap {
         let ratios = locations.iter().map(|l| l.observation_ratio).collect();
         let mut comp_start = Vec::with_capacity(locations.len() + 1);
         let mut table = Vec::new();
+        let mut speed = Vec::new();
+        let mut density_start = Vec::with_capacity(locations.len() + 1);
+        let mut density = Vec::new();
         let mut report = MapReport::default();
         for loc in &locations {
             comp_start.push(table.len() as u32);
+            density_start.push(density.len() as u32);
             let total: f64 = loc.components.iter().map(|c| c.weight).sum();
             if (total - 1.0).abs() > 1e-6 {
                 report.renormalised_locations += 1;
@@ -427,11 +463,35 @@ impl CliffMap {
                     report.clamped_covariances += 1;
                 }
                 cum += c.weight / total;
+                let sigma = cov[0].max(0.0).sqrt();
                 table.push(DirectionComponent {
                     cum_weight: cum,
                     mu: c.theta,
-                    sigma: cov[0].max(0.0).sqrt(),
+                    sigma,
                 });
+                speed.push(if cov[0] > 0.0 {
+                    SpeedComponent {
+                        mean: c.rho,
+                        slope: cov[1] / sigma,
+                        sd: (cov[3] - cov[1] * cov[1] / cov[0]).max(0.0).sqrt(),
+                    }
+                } else {
+                    SpeedComponent {
+                        mean: c.rho,
+                        slope: 0.0,
+                        sd: cov[3].max(0.0).sqrt(),
+                    }
+                });
+                // Scores: covariance eigenvalues floored as in `cliff map score`.
+                if c.weight > 0.0
+                    && let Some(g) = Gauss2::new(
+                        [c.theta, c.rho],
+                        floor_eigenvalues(cov, SCORE_EIGENVALUE_FLOOR),
+                        c.weight / total,
+                    )
+                {
+                    density.push(g);
+                }
             }
             // Guard against rounding: the last cumulative weight is exactly one.
             if let Some(last) = table.last_mut() {
@@ -439,6 +499,18 @@ impl CliffMap {
             }
         }
         comp_start.push(table.len() as u32);
+        density_start.push(density.len() as u32);
+        let (_, speed) = pad_with(comp_start.clone(), speed, |last| last);
+        let step_density = density
+            .iter()
+            .map(|g| StepDensity {
+                cos_mu: g.mu[0].cos() as f32,
+                sin_mu: g.mu[0].sin() as f32,
+                rho: g.mu[1],
+                inv: g.inv,
+                log_norm: g.log_norm,
+            })
+            .collect();
         let (comp_start, table) = pad_components(comp_start, table);
         Ok(Self {
             locations,
@@ -447,6 +519,10 @@ impl CliffMap {
             ratios,
             comp_start,
             table,
+            speed,
+            density_start,
+            density,
+            step_density,
             report,
             tables: TableCache::default(),
         })
@@ -631,7 +707,109 @@ impl CliffMap {
             table: &self.table[a..b],
         }
     }
+
+    /// A velocity draw at location `index`: a component by weight, a direction from its
+    /// normal (unwrapped, as [`DirectionSampler::sample_unwrapped`]) and a speed from the
+    /// component's normal given that direction (clamped at 0). Two normal draws after the
+    /// uniform one, so its stream differs from [`direction_at`](Self::direction_at)'s.
+    #[inline(always)]
+    pub fn velocity_at<R: Rng + ?Sized>(&self, index: usize, rng: &mut R) -> (f64, f64) {
+        let a = self.comp_start[index] as usize;
+        let b = self.comp_start[index + 1] as usize;
+        let table = &self.table[a..b];
+        let u: f64 = rng.random();
+        let i = table
+            .iter()
+            .map(|e| (u >= e.cum_weight) as usize)
+            .sum::<usize>()
+            .min(table.len() - 1);
+        let (c, sp) = (&table[i], &self.speed[a + i]);
+        let z: f64 = StandardNormal.sample(rng);
+        let z2: f64 = StandardNormal.sample(rng);
+        (
+            c.mu + c.sigma * z,
+            (sp.mean + sp.slope * z + sp.sd * z2).max(0.0),
+        )
+    }
+
+    /// Log-density of the velocity `(theta, rho)` (rad, m/s) under location `index`'s
+    /// mixture (weights renormalised, covariance eigenvalues floored at 1e-4, winding
+    /// numbers -1, 0, 1), as [`score`](score::score) computes it; `-inf` for a location
+    /// without components.
+    pub fn log_density(&self, index: usize, theta: f64, rho: f64) -> f64 {
+        let a = self.density_start[index] as usize;
+        let b = self.density_start[index + 1] as usize;
+        let theta = wrap_2pi(theta);
+        // streaming log-sum-exp
+        let mut m = f64::NEG_INFINITY;
+        let mut sum = 0.0;
+        for g in &self.density[a..b] {
+            let v = g.log_density_wrapped(theta, rho);
+            if v > m {
+                sum = sum * (m - v).exp() + 1.0;
+                m = v;
+            } else if v > f64::NEG_INFINITY {
+                sum += (v - m).exp();
+            }
+        }
+        if m == f64::NEG_INFINITY {
+            m
+        } else {
+            m + sum.ln()
+        }
+    }
 }
+
+impl CliffMap {
+    /// [`log_density`](Self::log_density) for the prediction loop: the heading given as
+    /// a unit vector `(ux, uy)` (its angle in single precision) and short polynomial
+    /// kernels. It sums the windings -1, 0, 1 around the nearest offset of the heading
+    /// from each mean, [`log_density`](Self::log_density) around `theta - mu` in
+    /// `(-2pi, 2pi)`: the two agree (within 1e-2) for components narrower than about
+    /// 1 rad away from the far tails, and differ for the widest.
+    #[inline]
+    pub fn step_log_density(&self, index: usize, ux: f32, uy: f32, rho: f64) -> f64 {
+        use crate::predict::fastmath::{acos_f32, exp_neg, ln_ge1};
+        let a = self.density_start[index] as usize;
+        let b = self.density_start[index + 1] as usize;
+        let mut m = f64::NEG_INFINITY;
+        let mut sum = 0.0;
+        for c in &self.step_density[a..b] {
+            let dot = ux * c.cos_mu + uy * c.sin_mu;
+            let cross = uy * c.cos_mu - ux * c.sin_mu;
+            let d0 = acos_f32(dot).copysign(cross) as f64;
+            let dr = rho - c.rho;
+            for d in [d0 - TAU, d0, d0 + TAU] {
+                let q = c.inv[0] * d * d + 2.0 * c.inv[1] * d * dr + c.inv[2] * dr * dr;
+                let v = c.log_norm - 0.5 * q;
+                if v > m {
+                    sum = sum * exp_neg(m - v) + 1.0;
+                    m = v;
+                } else {
+                    sum += exp_neg(v - m);
+                }
+            }
+        }
+        if m == f64::NEG_INFINITY {
+            m
+        } else {
+            m + ln_ge1(sum)
+        }
+    }
+}
+
+/// One component for [`CliffMap::step_log_density`].
+#[derive(Debug, Clone, Copy)]
+struct StepDensity {
+    cos_mu: f32,
+    sin_mu: f32,
+    rho: f64,
+    inv: [f64; 3],
+    log_norm: f64,
+}
+
+/// Covariance eigenvalue floor of [`CliffMap::log_density`] (as in `cliff map score`).
+const SCORE_EIGENVALUE_FLOOR: f64 = 1e-4;
 
 /// Sampling a direction at one location, as a [`Distribution`] (see [`CliffMap::direction_at`]).
 #[derive(Debug, Clone, Copy)]

@@ -17,6 +17,8 @@ pub struct TrajectoryBatch {
     steps: usize,
     positions: Vec<Point>,
     lens: Vec<u32>,
+    /// One score per sample when the last call asked for scores, else empty.
+    scores: Vec<f32>,
 }
 
 /// Mutable views of the two buffers a prediction writes: `positions` holds
@@ -102,6 +104,59 @@ impl TrajectoryBatch {
     pub fn full_sample(&self, a: usize, s: usize) -> &[Point] {
         let i = (a * self.k + s) * self.steps;
         &self.positions[i..i + self.steps]
+    }
+
+    /// The score of every sample (see [`Options::scores`](super::Options::scores)),
+    /// empty when the last prediction did not compute them.
+    pub fn scores(&self) -> &[f32] {
+        &self.scores
+    }
+
+    /// The score of sample `s` of agent `a`, when the last prediction computed scores.
+    pub fn score(&self, a: usize, s: usize) -> Option<f32> {
+        self.scores.get(a * self.k + s).copied()
+    }
+
+    /// The sample of agent `a` with the highest score (the first of equals), when the
+    /// last prediction computed scores.
+    pub fn best_sample(&self, a: usize) -> Option<usize> {
+        let scores = self.scores.get(a * self.k..(a + 1) * self.k)?;
+        let mut best = 0;
+        for (s, v) in scores.iter().enumerate() {
+            if *v > scores[best] {
+                best = s;
+            }
+        }
+        Some(best)
+    }
+
+    /// Size the score buffer for the current shape (`true`) or empty it (`false`).
+    pub(super) fn try_size_scores(&mut self, on: bool) -> Result<(), PredictError> {
+        if on {
+            let n = self.lens.len();
+            self.scores
+                .try_reserve(n.saturating_sub(self.scores.len()))
+                .map_err(|_| PredictError::TooLarge {
+                    agents: self.agents,
+                    k: self.k,
+                    steps: self.steps,
+                })?;
+            self.scores.resize(n, 0.0);
+        } else {
+            self.scores.clear();
+        }
+        Ok(())
+    }
+
+    /// Mutable views of the buffers and of the score buffer.
+    pub(super) fn parts_mut(&mut self) -> (BatchMut<'_>, &mut [f32]) {
+        (
+            BatchMut {
+                positions: &mut self.positions,
+                lens: &mut self.lens,
+            },
+            &mut self.scores,
+        )
     }
 
     /// Mutable views of the buffers, for [`predict_into`](super::predict_into).

@@ -82,6 +82,20 @@ pub fn exp_neg(x: f64) -> f64 {
     if x < -708.0 { 0.0 } else { y }
 }
 
+/// `ln x` for finite `x >= 1` (sample scores: the log of a mixture's sum relative to
+/// its largest term), within 1e-6 absolute: `ln m + e ln 2` from the bits, with
+/// `ln m = 2 atanh((m - 1) / (m + 1))` to the ninth power.
+#[inline(always)]
+pub fn ln_ge1(x: f64) -> f64 {
+    let bits = x.to_bits();
+    let e = ((bits >> 52) & 0x7ff) as i64 - 1023;
+    let m = f64::from_bits((bits & ((1u64 << 52) - 1)) | (1023u64 << 52));
+    let s = (m - 1.0) / (m + 1.0);
+    let s2 = s * s;
+    let p = 1.0 + s2 * (1.0 / 3.0 + s2 * (1.0 / 5.0 + s2 * (1.0 / 7.0 + s2 * (1.0 / 9.0))));
+    2.0 * s * p + e as f64 * std::f64::consts::LN_2
+}
+
 /// `(sin x, cos x)` in single precision for `|x| < 1e4`, within 2e-7. Branch-free.
 #[inline(always)]
 pub fn sin_cos_f32(x: f32) -> (f32, f32) {

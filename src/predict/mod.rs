@@ -25,7 +25,8 @@
 //! ```
 
 mod batch;
-mod fastmath;
+mod extended;
+pub(crate) mod fastmath;
 
 use std::f64::consts::PI;
 use std::fmt;
@@ -39,6 +40,7 @@ use crate::map::{CliffMap, Lookup, wrap_2pi};
 use crate::motion::State;
 
 pub use batch::{BatchMut, Point, TrajectoryBatch};
+pub use extended::{NO_LOCATION_LOG_DENSITY, Options, predict_into_with, predict_with};
 
 /// Prediction method.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
@@ -247,6 +249,7 @@ pub fn predict(
 ) -> Result<(), PredictError> {
     params.validate()?;
     out.try_reshape(agents.len(), params.k, params.steps())?;
+    out.try_size_scores(false)?;
     predict_into(map, agents, params, out.as_mut())
 }
 
@@ -347,33 +350,7 @@ impl Rollout {
         out: BatchMut<'_>,
     ) -> Result<(), PredictError> {
         let params = &self.params;
-        let steps = params.steps();
-        let too_large = PredictError::TooLarge {
-            agents: agents.len(),
-            k: params.k,
-            steps,
-        };
-        let samples = agents
-            .len()
-            .checked_mul(params.k)
-            .ok_or(too_large.clone())?;
-        let need = samples.checked_mul(steps).ok_or(too_large)?;
-        if out.positions.len() != need || out.lens.len() != samples {
-            return Err(PredictError::Shape {
-                got: out.positions.len(),
-                got_lens: out.lens.len(),
-                need,
-                need_lens: samples,
-            });
-        }
-        if let Some(i) = agents.iter().position(|s| {
-            !(s.position.is_finite()
-                && s.speed.is_finite()
-                && s.heading.is_finite()
-                && s.speed >= 0.0)
-        }) {
-            return Err(PredictError::State(i));
-        }
+        let steps = check_call(agents, params, &out)?;
         if steps == 0 {
             out.lens.fill(0);
             return Ok(());
@@ -410,6 +387,41 @@ impl Rollout {
         }
         Ok(())
     }
+}
+
+/// Check the parameters, the buffer shapes and the agents' states of a call; the
+/// number of steps.
+fn check_call(
+    agents: &[State],
+    params: &Params,
+    out: &BatchMut<'_>,
+) -> Result<usize, PredictError> {
+    params.validate()?;
+    let steps = params.steps();
+    let too_large = PredictError::TooLarge {
+        agents: agents.len(),
+        k: params.k,
+        steps,
+    };
+    let samples = agents
+        .len()
+        .checked_mul(params.k)
+        .ok_or(too_large.clone())?;
+    let need = samples.checked_mul(steps).ok_or(too_large)?;
+    if out.positions.len() != need || out.lens.len() != samples {
+        return Err(PredictError::Shape {
+            got: out.positions.len(),
+            got_lens: out.lens.len(),
+            need,
+            need_lens: samples,
+        });
+    }
+    if let Some(i) = agents.iter().position(|s| {
+        !(s.position.is_finite() && s.speed.is_finite() && s.heading.is_finite() && s.speed >= 0.0)
+    }) {
+        return Err(PredictError::State(i));
+    }
+    Ok(steps)
 }
 
 /// Roll every CLiFF-LHMP sample of every agent; `near` finds the sampling location

@@ -151,6 +151,7 @@ pub fn run(a: DemoArgs) -> Result<()> {
         params: a.prediction.params(Method::Cliff, 0),
         seeds: a.seeds.max(1),
         methods: vec![Method::Cliff, Method::Cvm],
+        options: Default::default(),
     };
     let report = evaluate(&map, &tracks, &cfg, &|| {}).context("evaluation")?;
     if report.people_evaluated == 0 {

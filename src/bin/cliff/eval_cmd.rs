@@ -6,11 +6,14 @@ use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result, bail};
 use clap::Args;
-use cliff::eval::dataset::{Format, Track, read_many};
+use cliff::eval::columns::{Columns, read_many_as};
+use cliff::eval::dataset::{Format, Track, keep_time_range};
 use cliff::eval::protocol::{Case, Protocol, Settings, prepare};
 use cliff::eval::{EvalConfig, evaluate, person_seed, summary_table, write_reports};
 use cliff::map::CliffMap;
-use cliff::predict::{HeadingRule, Method, Params, TrajectoryBatch, predict};
+use cliff::predict::{
+    HeadingRule, Method, Options, Params, TrajectoryBatch, predict_with, steps_for,
+};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 
 use crate::map_cmd::load_map;
@@ -19,8 +22,10 @@ use crate::map_cmd::load_map;
 #[derive(Args, Debug, Clone)]
 pub struct PredictionArgs {
     /// Evaluation protocol: `reference` (the published code's row-based rules, for parity:
-    /// observed rows, 10-row idle filter whatever the rate) or `seconds` (the same rules
-    /// stated in time, with a 4 s idle window, for data at any rate).
+    /// observed rows, 10-row idle filter whatever the rate), `seconds` (the same rules
+    /// stated in time, with a 4 s idle window, for data at any rate) or `windows` (the
+    /// seconds rules in a window every `--window-every` seconds along each track, for long
+    /// recordings such as THÖR-MAGNI).
     #[arg(long, default_value = "seconds")]
     pub protocol: Protocol,
     /// Observed history (s); the reference protocol turns it into rows (3.2 s at 0.4 s = 8 rows).
@@ -48,6 +53,46 @@ pub struct PredictionArgs {
     /// Heading update: `circular-mean` (the reference) or `paper` (the paper's formula).
     #[arg(long, default_value = "circular-mean")]
     pub heading: HeadingRule,
+    /// Windows protocol: a new window every this many seconds along each track
+    /// (0: back to back, every obs + horizon seconds).
+    #[arg(long, default_value_t = 0.0, value_parser = non_negative)]
+    pub window_every: f64,
+    /// Speed kernel (beyond the paper): the speed moves towards speeds drawn from the map,
+    /// `v += exp(-speed_beta (r - v)^2) (r - v)`; 0 keeps the observed speed (the paper).
+    #[arg(long, default_value_t = 0.0, value_parser = non_negative)]
+    pub speed_beta: f64,
+    /// Evaluate only the people (or windows) whose ground truth lasts the whole
+    /// horizon: the same people at every horizon.
+    #[arg(long)]
+    pub full_horizon_only: bool,
+    /// Seconds a sample goes on at constant velocity where the map has no data (beyond
+    /// the paper); 0 stops it there (the paper).
+    #[arg(long, default_value_t = 0.0, value_parser = non_negative)]
+    pub coast: f64,
+}
+
+fn non_negative(s: &str) -> Result<f64, String> {
+    match s.trim().parse::<f64>() {
+        Ok(v) if v.is_finite() && v >= 0.0 => Ok(v),
+        _ => Err(format!("'{s}' is not a non-negative number of seconds")),
+    }
+}
+
+/// How trajectory files are read, beyond their format (shared by `eval`, `predict` and
+/// `map build`).
+#[derive(Args, Debug, Clone, Default)]
+pub struct ReadArgs {
+    /// Column names of a CSV with a header row (with `--format csv`, or to override
+    /// `magni`'s): `t=Time,id=ag_id,x=x,y=y`, optionally with `speed=`, `angle=` (rad),
+    /// `vx=`, `vy=`; without a velocity the positions give it.
+    #[arg(long, value_name = "FIELD=COLUMN,...")]
+    pub columns: Option<Columns>,
+    /// Keep only rows at or after this time (s, as in the file).
+    #[arg(long, value_name = "S")]
+    pub time_from: Option<f64>,
+    /// Keep only rows before this time (s, as in the file).
+    #[arg(long, value_name = "S")]
+    pub time_until: Option<f64>,
 }
 
 impl PredictionArgs {
@@ -58,7 +103,17 @@ impl PredictionArgs {
             dt: self.dt,
             horizon: self.horizon,
             sigma: self.sigma,
+            window_every: self.window_every,
+            full_horizon_only: self.full_horizon_only,
             ..Settings::default()
+        }
+    }
+
+    pub(crate) fn options(&self, scores: bool) -> Options {
+        Options {
+            speed_beta: self.speed_beta,
+            coast: self.coast,
+            scores,
         }
     }
 
@@ -85,9 +140,12 @@ pub struct EvalArgs {
     /// Trajectory files to evaluate on.
     #[arg(long, required = true, num_args = 1..)]
     pub tracks: Vec<PathBuf>,
-    /// Trajectory file format.
+    /// Trajectory file format: thor, atc, magni (THÖR-MAGNI, header row) or csv (header
+    /// row, see --columns).
     #[arg(long, default_value = "thor")]
     pub format: Format,
+    #[command(flatten)]
+    pub read: ReadArgs,
     #[command(flatten)]
     pub prediction: PredictionArgs,
     /// Seeds per stochastic method; the summary holds means and standard deviations over them.
@@ -110,9 +168,11 @@ pub struct PredictArgs {
     /// Trajectory file holding the person.
     #[arg(long)]
     pub tracks: PathBuf,
-    /// Trajectory file format.
+    /// Trajectory file format: thor, atc, magni or csv.
     #[arg(long, default_value = "thor")]
     pub format: Format,
+    #[command(flatten)]
+    pub read: ReadArgs,
     /// Person id.
     #[arg(long)]
     pub person: u64,
@@ -130,12 +190,30 @@ pub struct PredictArgs {
 }
 
 pub(crate) fn load_tracks(paths: &[PathBuf], format: Format) -> Result<Vec<Track>> {
+    load_tracks_with(paths, format, &ReadArgs::default())
+}
+
+/// Read trajectory files with a column mapping and time range.
+pub(crate) fn load_tracks_with(
+    paths: &[PathBuf],
+    format: Format,
+    read: &ReadArgs,
+) -> Result<Vec<Track>> {
     for p in paths {
         if !p.exists() {
             bail!("track file {} does not exist", p.display());
         }
     }
-    Ok(read_many(paths, format)?)
+    let mut tracks = read_many_as(paths, format, read.columns.as_ref())?;
+    if read.time_from.is_some() || read.time_until.is_some() {
+        let from = read.time_from.unwrap_or(f64::NEG_INFINITY);
+        let until = read.time_until.unwrap_or(f64::INFINITY);
+        if from.is_nan() || until.is_nan() || from >= until {
+            bail!("--time-from {from} is not before --time-until {until}");
+        }
+        keep_time_range(&mut tracks, from, until);
+    }
+    Ok(tracks)
 }
 
 /// A progress bar that appears only once the run has taken more than a second.
@@ -178,12 +256,13 @@ pub fn run_eval(a: EvalArgs) -> Result<()> {
         bail!("--methods names no method");
     }
     let map = load_map(a.map.as_ref())?;
-    let tracks = load_tracks(&a.tracks, a.format)?;
+    let tracks = load_tracks_with(&a.tracks, a.format, &a.read)?;
     let cfg = EvalConfig {
         settings: a.prediction.settings(),
         params: a.prediction.params(Method::Cliff, 0),
         seeds: a.seeds.max(1),
         methods: a.methods.clone(),
+        options: a.prediction.options(false),
     };
     let progress = LateProgress::new(tracks.len() as u64, "evaluating");
     let t0 = Instant::now();
@@ -191,7 +270,11 @@ pub fn run_eval(a: EvalArgs) -> Result<()> {
     progress.bar.finish_and_clear();
     println!(
         "{} of {} people evaluated ({} protocol, {} seed(s), {:.1} s)",
-        report.people_evaluated,
+        if cfg.settings.protocol == Protocol::Windows {
+            format!("{} windows", report.people_evaluated)
+        } else {
+            report.people_evaluated.to_string()
+        },
         report.people_total,
         cfg.settings.protocol,
         cfg.seeds,
@@ -206,6 +289,11 @@ pub fn run_eval(a: EvalArgs) -> Result<()> {
             .map(|i| i as f64 * 10.0)
             .collect();
         horizons.insert(0, 5.0);
+    }
+    // the longest horizon too when it is not on the grid (4.8 s for THÖR-MAGNI's 12 rows)
+    let last = steps_for(cfg.settings.horizon, cfg.settings.dt) as f64 * cfg.settings.dt;
+    if last > 0.0 && horizons.last().is_none_or(|h| *h < last - 1e-6) {
+        horizons.push(last);
     }
     print!("{}", summary_table(&report.summary, &horizons));
     if let Some(dir) = &a.out {
@@ -233,17 +321,23 @@ pub(crate) fn predict_case(
 ) -> Result<Params> {
     let params = Params {
         horizon: case.steps as f64 * prediction.dt,
-        ..prediction.params(method, person_seed(seed, case.id))
+        ..prediction.params(method, person_seed(seed, case.seed_key()))
     };
-    predict(map, std::slice::from_ref(&case.start), &params, batch)
-        .with_context(|| format!("predicting person {}", case.id))?;
+    predict_with(
+        map,
+        std::slice::from_ref(&case.start),
+        &params,
+        &prediction.options(true),
+        batch,
+    )
+    .with_context(|| format!("predicting person {}", case.id))?;
     Ok(params)
 }
 
 /// Run `cliff predict`.
 pub fn run_predict(a: PredictArgs) -> Result<()> {
     let map = load_map(a.map.as_ref())?;
-    let tracks = load_tracks(std::slice::from_ref(&a.tracks), a.format)?;
+    let tracks = load_tracks_with(std::slice::from_ref(&a.tracks), a.format, &a.read)?;
     let track = tracks
         .iter()
         .find(|t| t.id == a.person)
@@ -257,12 +351,20 @@ pub fn run_predict(a: PredictArgs) -> Result<()> {
     })?;
     let mut batch = TrajectoryBatch::new();
     let params = predict_case(&map, &case, &a.prediction, a.method, a.seed, &mut batch)?;
-    let mut out = String::from("sample,step,t,x,y\n");
+    // score: the sample's log-likelihood under the map (the same on each of its rows)
+    let mut out = String::from("sample,step,t,x,y,score\n");
     use std::fmt::Write as _;
     for s in 0..params.k {
+        let score = batch.score(0, s).unwrap_or(f32::NAN);
         for (j, p) in batch.sample(0, s).iter().enumerate() {
             let t = case.start.time + (j + 1) as f64 * params.dt;
-            let _ = writeln!(out, "{s},{},{t:.3},{:.4},{:.4}", j + 1, p[0], p[1]);
+            let _ = writeln!(
+                out,
+                "{s},{},{t:.3},{:.4},{:.4},{score:.3}",
+                j + 1,
+                p[0],
+                p[1]
+            );
         }
     }
     match &a.out {
@@ -272,7 +374,7 @@ pub fn run_predict(a: PredictArgs) -> Result<()> {
                 .filter(|&s| batch.len(0, s) == case.steps)
                 .count();
             println!(
-                "person {}: start ({:.2}, {:.2}) at t {:.2}, speed {:.2} m/s, heading {:.1} deg; {} samples of {} steps ({} reach the end); wrote {}",
+                "person {}: start ({:.2}, {:.2}) at t {:.2}, speed {:.2} m/s, heading {:.1} deg; {} samples of {} steps ({} reach the end, the most likely is sample {}); wrote {}",
                 case.id,
                 case.start.position.x,
                 case.start.position.y,
@@ -282,6 +384,7 @@ pub fn run_predict(a: PredictArgs) -> Result<()> {
                 params.k,
                 case.steps,
                 reached,
+                batch.best_sample(0).unwrap_or(0),
                 path.display()
             );
         }

@@ -5,7 +5,7 @@ use std::time::Instant;
 
 use anyhow::{Context, Result, bail};
 use clap::Args;
-use cliff::eval::dataset::{Format, read_many};
+use cliff::eval::dataset::Format;
 use cliff::map::CliffMap;
 use cliff::map::build::{
     BuildParams, EmParams, FitParams, MeanShift, Observation, build_map_with_progress,
@@ -15,15 +15,19 @@ use cliff::map::score::{ScoreParams, score as score_map};
 use cliff::map::update::{OnlineMap, UpdateParams};
 use indicatif::{ProgressBar, ProgressStyle};
 
+use crate::eval_cmd::{ReadArgs, load_tracks_with};
+
 /// Trajectory input shared by the learning commands.
 #[derive(Args, Debug)]
 pub struct TrackArgs {
     /// Trajectory files (CSV without header: time, person_id, x, y, speed, motion_angle).
     #[arg(long, num_args = 1.., required = true, value_name = "FILE")]
     pub tracks: Vec<PathBuf>,
-    /// Trajectory file format: thor or atc.
+    /// Trajectory file format: thor, atc, magni or csv.
     #[arg(long, default_value = "atc", value_parser = parse_format)]
     pub format: Format,
+    #[command(flatten)]
+    pub read: ReadArgs,
 }
 
 fn parse_format(s: &str) -> Result<Format, String> {
@@ -32,7 +36,8 @@ fn parse_format(s: &str) -> Result<Format, String> {
 
 impl TrackArgs {
     fn observations(&self) -> Result<Vec<Observation>> {
-        let tracks = read_many(&self.tracks, self.format).context("reading trajectories")?;
+        let tracks = load_tracks_with(&self.tracks, self.format, &self.read)
+            .context("reading trajectories")?;
         let obs = observations_from_tracks(&tracks);
         if obs.is_empty() {
             bail!("the trajectory files hold no rows");

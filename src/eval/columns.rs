@@ -1,0 +1,551 @@
+//! Trajectory CSV files with a header row, read by column name: THÖR-MAGNI and any
+//! other CSV whose columns are named (`t=Time,id=ag_id,x=x,y=y`).
+//!
+//! Each row gives a time, an agent id, a position and optionally its velocity. The
+//! velocity of a row comes from, in this order of preference:
+//!
+//! 1. a `speed` column and an `angle` column (rad);
+//! 2. `vx` and `vy` columns (speed `hypot(vx, vy)` unless a `speed` column is named,
+//!    heading `atan2(vy, vx)`; heading 0 where both are 0);
+//! 3. the positions: the difference to the agent's previous row over the time between
+//!    them (the agent's first row takes the difference to its second).
+//!
+//! Agent ids: a whole number is kept as it is. Otherwise ids are strings; when every
+//! string id of the file ends in digits and no two end in the same number, the id is that
+//! number (`Helmet_4` is person 4), else agents are numbered 1, 2, ... in order of first
+//! appearance. [`NamedTracks::names`] maps the numbers back to the file's ids.
+//!
+//! ```
+//! use cliff::eval::columns::{Columns, parse_named};
+//! let text = "Time,ag_id,x,y,speed,x_speed,y_speed\n\
+//!             0.0,Helmet_2,1.0,2.0,1.0,1.0,0.0\n\
+//!             0.4,Helmet_2,1.4,2.0,1.0,1.0,0.0\n";
+//! let named = parse_named(text, "magni.csv", &Columns::magni()).unwrap();
+//! assert_eq!(named.tracks[0].id, 2);
+//! assert_eq!(named.names[0], (2, "Helmet_2".to_string()));
+//! assert_eq!(named.tracks[0].rows[1].speed, 1.0);
+//! ```
+
+use std::collections::HashMap;
+use std::fmt;
+use std::path::Path;
+use std::str::FromStr;
+
+use glam::DVec2;
+
+use super::dataset::{DatasetError, Format, Row, Track, read_many};
+
+/// Which header column holds each field. Optional fields may be left out (see the
+/// module documentation for how the velocity is found).
+#[derive(Debug, Clone, PartialEq, Eq, Hash)]
+pub struct Columns {
+    /// Time (s).
+    pub t: String,
+    /// Agent id.
+    pub id: String,
+    /// Position x (m).
+    pub x: String,
+    /// Position y (m).
+    pub y: String,
+    /// Speed (m/s).
+    pub speed: Option<String>,
+    /// Motion angle (rad).
+    pub angle: Option<String>,
+    /// Velocity x (m/s).
+    pub vx: Option<String>,
+    /// Velocity y (m/s).
+    pub vy: Option<String>,
+}
+
+impl Default for Columns {
+    /// `t=t,id=id,x=x,y=y`: velocities from the positions.
+    fn default() -> Self {
+        Self {
+            t: "t".into(),
+            id: "id".into(),
+            x: "x".into(),
+            y: "y".into(),
+            speed: None,
+            angle: None,
+            vx: None,
+            vy: None,
+        }
+    }
+}
+
+impl Columns {
+    /// THÖR-MAGNI: `t=Time,id=ag_id,x=x,y=y,speed=speed,vx=x_speed,vy=y_speed`.
+    pub fn magni() -> Self {
+        Self {
+            t: "Time".into(),
+            id: "ag_id".into(),
+            x: "x".into(),
+            y: "y".into(),
+            speed: Some("speed".into()),
+            angle: None,
+            vx: Some("x_speed".into()),
+            vy: Some("y_speed".into()),
+        }
+    }
+}
+
+impl FromStr for Columns {
+    type Err = String;
+    /// `field=Header,...` with fields `t`, `id`, `x`, `y` (required) and `speed`,
+    /// `angle`, `vx`, `vy`.
+    fn from_str(s: &str) -> Result<Self, String> {
+        let mut t = None;
+        let mut id = None;
+        let mut x = None;
+        let mut y = None;
+        let mut c = Columns::default();
+        for part in s.split(',').map(str::trim).filter(|p| !p.is_empty()) {
+            let Some((field, header)) = part.split_once('=') else {
+                return Err(format!(
+                    "column mapping '{part}' is not field=Header (for example t=Time)"
+                ));
+            };
+            let header = header.trim().to_string();
+            if header.is_empty() {
+                return Err(format!("column mapping '{part}' names no header column"));
+            }
+            let slot = match field.trim().to_ascii_lowercase().as_str() {
+                "t" | "time" => &mut t,
+                "id" => &mut id,
+                "x" => &mut x,
+                "y" => &mut y,
+                "speed" => &mut c.speed,
+                "angle" | "heading" => &mut c.angle,
+                "vx" => &mut c.vx,
+                "vy" => &mut c.vy,
+                other => {
+                    return Err(format!(
+                        "unknown field '{other}' in column mapping (expected t, id, x, y, speed, angle, vx, vy)"
+                    ));
+                }
+            };
+            if slot.is_some() {
+                return Err(format!("field '{}' is mapped twice", field.trim()));
+            }
+            *slot = Some(header);
+        }
+        let need = |v: Option<String>, f: &str| {
+            v.ok_or_else(|| format!("column mapping lacks '{f}=' (t, id, x and y are required)"))
+        };
+        c.t = need(t, "t")?;
+        c.id = need(id, "id")?;
+        c.x = need(x, "x")?;
+        c.y = need(y, "y")?;
+        if c.vx.is_some() != c.vy.is_some() {
+            return Err("column mapping names only one of vx and vy".into());
+        }
+        if c.angle.is_some() && c.speed.is_none() {
+            return Err("column mapping names angle without speed".into());
+        }
+        if c.speed.is_some() && c.angle.is_none() && c.vx.is_none() {
+            return Err("column mapping names speed without angle or vx, vy".into());
+        }
+        Ok(c)
+    }
+}
+
+impl fmt::Display for Columns {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "t={},id={},x={},y={}", self.t, self.id, self.x, self.y)?;
+        for (k, v) in [
+            ("speed", &self.speed),
+            ("angle", &self.angle),
+            ("vx", &self.vx),
+            ("vy", &self.vy),
+        ] {
+            if let Some(v) = v {
+                write!(f, ",{k}={v}")?;
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Tracks read from a named-column file, with the file's agent ids.
+#[derive(Debug, Clone, PartialEq)]
+pub struct NamedTracks {
+    /// Tracks in order of first appearance.
+    pub tracks: Vec<Track>,
+    /// `(track id, id in the file)`, one per track, in the same order.
+    pub names: Vec<(u64, String)>,
+}
+
+/// Read a named-column file.
+pub fn read_named(path: &Path, columns: &Columns) -> Result<NamedTracks, DatasetError> {
+    let file = path.display().to_string();
+    let text = std::fs::read_to_string(path).map_err(|source| DatasetError::Io {
+        file: file.clone(),
+        source,
+    })?;
+    parse_named(&text, &file, columns)
+}
+
+/// Read and concatenate the tracks of several named-column files.
+pub fn read_many_named(
+    paths: &[impl AsRef<Path>],
+    columns: &Columns,
+) -> Result<Vec<Track>, DatasetError> {
+    let mut all = Vec::new();
+    for p in paths {
+        all.extend(read_named(p.as_ref(), columns)?.tracks);
+    }
+    Ok(all)
+}
+
+/// Read and concatenate the tracks of several files in `format`; `columns`, when given,
+/// names the columns of a [`Format::Csv`] or [`Format::Magni`] file (and is an error
+/// with the headerless formats).
+pub fn read_many_as(
+    paths: &[impl AsRef<Path>],
+    format: Format,
+    columns: Option<&Columns>,
+) -> Result<Vec<Track>, ReadError> {
+    match (format, columns) {
+        (Format::Csv | Format::Magni, Some(c)) => Ok(read_many_named(paths, c)?),
+        (Format::Thor | Format::Atc, Some(_)) => Err(ReadError::ColumnsWithoutHeader(format)),
+        (_, None) => Ok(read_many(paths, format)?),
+    }
+}
+
+/// Errors of [`read_many_as`].
+#[derive(Debug, thiserror::Error)]
+pub enum ReadError {
+    /// The file could not be read or parsed.
+    #[error(transparent)]
+    Dataset(#[from] DatasetError),
+    /// A column mapping was given for a format without a header row.
+    #[error("a column mapping needs a file with a header row (format csv or magni), not {0}")]
+    ColumnsWithoutHeader(Format),
+}
+
+/// Parse named-column CSV text; `file` names the source in errors.
+pub fn parse_named(text: &str, file: &str, columns: &Columns) -> Result<NamedTracks, DatasetError> {
+    let err = |line: usize, column: usize, message: String| DatasetError::Parse {
+        file: file.to_string(),
+        line,
+        column,
+        message,
+    };
+    let mut lines = text
+        .lines()
+        .enumerate()
+        .map(|(i, l)| (i + 1, l.trim()))
+        .filter(|(_, l)| !l.is_empty());
+    let Some((hline, header)) = lines.next() else {
+        return Err(err(1, 0, "empty file: expected a header row".into()));
+    };
+    let header: Vec<&str> = header.split(',').map(str::trim).collect();
+    let find = |name: &str| -> Result<usize, DatasetError> {
+        header.iter().position(|h| *h == name).ok_or_else(|| {
+            err(
+                hline,
+                0,
+                format!(
+                    "no column named '{name}' in the header ({})",
+                    header.join(", ")
+                ),
+            )
+        })
+    };
+    let find_opt = |name: &Option<String>| name.as_deref().map(find).transpose();
+    let (ct, cid, cx, cy) = (
+        find(&columns.t)?,
+        find(&columns.id)?,
+        find(&columns.x)?,
+        find(&columns.y)?,
+    );
+    let (cspeed, cangle, cvx, cvy) = (
+        find_opt(&columns.speed)?,
+        find_opt(&columns.angle)?,
+        find_opt(&columns.vx)?,
+        find_opt(&columns.vy)?,
+    );
+    // Raw rows per agent id string; velocities filled in afterwards where needed.
+    let mut raw_ids: Vec<String> = Vec::new();
+    let mut index: HashMap<String, usize> = HashMap::new();
+    let mut rows: Vec<Vec<Row>> = Vec::new();
+    for (line, raw) in lines {
+        let fields: Vec<&str> = raw.split(',').map(str::trim).collect();
+        if fields.len() != header.len() {
+            return Err(err(
+                line,
+                0,
+                format!(
+                    "expected {} columns as in the header, found {}",
+                    header.len(),
+                    fields.len()
+                ),
+            ));
+        }
+        let num = |c: usize| -> Result<f64, DatasetError> {
+            let v: f64 = fields[c].parse().map_err(|_| {
+                err(
+                    line,
+                    c + 1,
+                    format!("{}: '{}' is not a number", header[c], fields[c]),
+                )
+            })?;
+            if v.is_finite() {
+                Ok(v)
+            } else {
+                Err(err(
+                    line,
+                    c + 1,
+                    format!("{}: '{}' is not finite", header[c], fields[c]),
+                ))
+            }
+        };
+        let id = fields[cid];
+        if id.is_empty() {
+            return Err(err(
+                line,
+                cid + 1,
+                format!("{}: empty agent id", header[cid]),
+            ));
+        }
+        let t = num(ct)?;
+        let position = DVec2::new(num(cx)?, num(cy)?);
+        let v = match (cvx, cvy) {
+            (Some(a), Some(b)) => Some(DVec2::new(num(a)?, num(b)?)),
+            _ => None,
+        };
+        let speed = match cspeed {
+            Some(c) => {
+                let s = num(c)?;
+                if s < 0.0 {
+                    return Err(err(
+                        line,
+                        c + 1,
+                        format!("{}: negative speed {s}", header[c]),
+                    ));
+                }
+                Some(s)
+            }
+            None => v.map(|v| v.length()),
+        };
+        let angle = match cangle {
+            Some(c) => Some(num(c)?),
+            None => v.map(heading_of),
+        };
+        let i = *index.entry(id.to_string()).or_insert_with(|| {
+            raw_ids.push(id.to_string());
+            rows.push(Vec::new());
+            rows.len() - 1
+        });
+        if let Some(prev) = rows[i].last()
+            && t <= prev.t
+        {
+            return Err(err(
+                line,
+                ct + 1,
+                format!(
+                    "time {t} of agent {id} does not increase (previous row {})",
+                    prev.t
+                ),
+            ));
+        }
+        rows[i].push(Row {
+            t,
+            position,
+            speed: speed.unwrap_or(f64::NAN),
+            angle: angle.unwrap_or(f64::NAN),
+        });
+    }
+    if speed_from_positions(columns) {
+        for r in &mut rows {
+            velocities_from_positions(r);
+        }
+    }
+    let ids = number_ids(&raw_ids);
+    Ok(NamedTracks {
+        names: ids.iter().copied().zip(raw_ids).collect(),
+        tracks: ids
+            .into_iter()
+            .zip(rows)
+            .map(|(id, rows)| Track { id, rows })
+            .collect(),
+    })
+}
+
+fn speed_from_positions(c: &Columns) -> bool {
+    c.vx.is_none() && c.angle.is_none()
+}
+
+/// Heading of a velocity; 0 when it is zero (a standing row).
+fn heading_of(v: DVec2) -> f64 {
+    if v == DVec2::ZERO { 0.0 } else { v.to_angle() }
+}
+
+/// Speed and angle of each row from the position difference to the previous row (the
+/// first row: to the next one; a lone row stands still).
+fn velocities_from_positions(rows: &mut [Row]) {
+    let n = rows.len();
+    for i in 0..n {
+        let (a, b) = match (i.checked_sub(1), i + 1 < n) {
+            (Some(p), _) => (p, i),
+            (None, true) => (0, 1),
+            (None, false) => {
+                rows[i].speed = 0.0;
+                rows[i].angle = 0.0;
+                continue;
+            }
+        };
+        let v = (rows[b].position - rows[a].position) / (rows[b].t - rows[a].t);
+        rows[i].speed = v.length();
+        rows[i].angle = heading_of(v);
+    }
+}
+
+/// Numeric ids for the file's id strings (see the module documentation).
+fn number_ids(raw: &[String]) -> Vec<u64> {
+    if let Some(ids) = raw
+        .iter()
+        .map(|s| s.parse::<u64>().ok())
+        .collect::<Option<Vec<u64>>>()
+    {
+        return ids;
+    }
+    let trailing = |s: &str| {
+        let digits = s.len() - s.trim_end_matches(|c: char| c.is_ascii_digit()).len();
+        s[s.len() - digits..].parse::<u64>().ok()
+    };
+    if let Some(ids) = raw
+        .iter()
+        .map(|s| trailing(s))
+        .collect::<Option<Vec<u64>>>()
+    {
+        let mut sorted = ids.clone();
+        sorted.sort_unstable();
+        if sorted.windows(2).all(|w| w[0] != w[1]) {
+            return ids;
+        }
+    }
+    (1..=raw.len() as u64).collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn cols(s: &str) -> Columns {
+        s.parse().unwrap()
+    }
+
+    #[test]
+    fn mapping_parses_and_names_what_is_wrong() {
+        let c = cols("t=Time,id=ag_id,x=x,y=y");
+        assert_eq!((c.t.as_str(), c.id.as_str()), ("Time", "ag_id"));
+        assert_eq!(c.to_string(), "t=Time,id=ag_id,x=x,y=y");
+        assert_eq!(cols(&Columns::magni().to_string()), Columns::magni());
+        let e = |s: &str| s.parse::<Columns>().unwrap_err();
+        assert!(e("t=Time,id=a,x=x").contains("lacks 'y='"));
+        assert!(e("t=Time,id=a,x=x,y=y,z=z").contains("unknown field 'z'"));
+        assert!(e("t=Time,id=a,x=x,y=y,vx=u").contains("only one of vx and vy"));
+        assert!(e("t=Time,id=a,x=x,y=y,x=q").contains("mapped twice"));
+        assert!(e("t").contains("not field=Header"));
+        assert!(e("t=,id=a,x=x,y=y").contains("names no header"));
+    }
+
+    #[test]
+    fn velocities_from_positions_speed_angle_or_components() {
+        // an agent walking north at 2 m/s, sampled every 0.5 s, columns in odd order
+        let text = "who,y,x,when\na,0,5,0\na,1,5,0.5\na,2,5,1\n";
+        let n = parse_named(text, "p.csv", &cols("t=when,id=who,x=x,y=y")).unwrap();
+        let rows = &n.tracks[0].rows;
+        assert_eq!(rows.len(), 3);
+        for r in rows {
+            assert!((r.speed - 2.0).abs() < 1e-12);
+            assert!((r.angle - std::f64::consts::FRAC_PI_2).abs() < 1e-12);
+        }
+        // a single string id without digits: numbered 1
+        assert_eq!(n.names, vec![(1, "a".to_string())]);
+        let text = "t,id,x,y,s,a\n0,7,0,0,1.5,0.25\n";
+        let n = parse_named(text, "p", &cols("t=t,id=id,x=x,y=y,speed=s,angle=a")).unwrap();
+        assert_eq!((n.tracks[0].id, n.tracks[0].rows[0].speed), (7, 1.5));
+        assert_eq!(n.tracks[0].rows[0].angle, 0.25);
+        let text = "t,id,x,y,u,v\n0,7,0,0,0,-3\n1,7,0,-3,0,0\n";
+        let n = parse_named(text, "p", &cols("t=t,id=id,x=x,y=y,vx=u,vy=v")).unwrap();
+        let r = &n.tracks[0].rows;
+        assert_eq!(r[0].speed, 3.0);
+        assert!((r[0].angle + std::f64::consts::FRAC_PI_2).abs() < 1e-12);
+        assert_eq!((r[1].speed, r[1].angle), (0.0, 0.0));
+    }
+
+    #[test]
+    fn string_ids_by_trailing_number_or_first_appearance() {
+        let ids = |v: &[&str]| number_ids(&v.iter().map(|s| s.to_string()).collect::<Vec<_>>());
+        assert_eq!(ids(&["Helmet_10", "Helmet_2"]), vec![10, 2]);
+        assert_eq!(ids(&["a_1", "b_1"]), vec![1, 2]);
+        assert_eq!(ids(&["bob", "alice3"]), vec![1, 2]);
+        assert_eq!(ids(&["12", "3"]), vec![12, 3]);
+    }
+
+    #[test]
+    fn errors_name_file_line_column() {
+        let e = |text: &str| {
+            parse_named(text, "m.csv", &Columns::magni())
+                .unwrap_err()
+                .to_string()
+        };
+        let head = "Time,ag_id,x,y,speed,x_speed,y_speed\n";
+        assert!(e("").contains("m.csv:1: column 0: empty file"));
+        assert!(
+            e("Time,id,x,y\n").contains("no column named 'ag_id' in the header (Time, id, x, y)")
+        );
+        assert!(
+            e(&format!("{head}0,H_1,0,0,0,0\n")).contains("m.csv:2: column 0: expected 7 columns")
+        );
+        assert!(
+            e(&format!("{head}0,H_1,0,zz,0,0,0\n"))
+                .contains("m.csv:2: column 4: y: 'zz' is not a number")
+        );
+        assert!(
+            e(&format!("{head}0,H_1,0,0,-1,0,0\n")).contains("column 5: speed: negative speed")
+        );
+        assert!(e(&format!("{head}0,,0,0,0,0,0\n")).contains("column 2: ag_id: empty agent id"));
+        assert!(
+            e(&format!("{head}1,H_1,0,0,0,0,0\n1,H_1,0,0,0,0,0\n"))
+                .contains("m.csv:3: column 1: time 1 of agent H_1 does not increase")
+        );
+    }
+
+    #[test]
+    fn reads_the_magni_recording() {
+        let path = concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../shared/data/magni/magni-A-first-16min.csv"
+        );
+        let n = read_named(path.as_ref(), &Columns::magni()).unwrap();
+        // 9 helmets; 17,435 data rows (the data README says 17,434: `wc -l` counts 17,436 lines with the header)
+        assert_eq!(n.tracks.len(), 9);
+        assert_eq!(n.tracks.iter().map(|t| t.rows.len()).sum::<usize>(), 17_435);
+        assert_eq!(n.names[0], (1, "Helmet_1".to_string()));
+        assert_eq!(n.tracks[3].id, 10);
+        // second row of Helmet_1: 0.41,Helmet_1,-8.022132,-1.276519,0.153186,-0.077607,0.132073
+        let r = n.tracks[0].rows[1];
+        assert_eq!((r.t, r.position.x, r.speed), (0.41, -8.022132, 0.153186));
+        assert!((r.angle - 0.132073f64.atan2(-0.077607)).abs() < 1e-12);
+        // the named-column reader with positions only agrees on the direction of motion
+        // where people walk
+        let p = read_named(path.as_ref(), &cols("t=Time,id=ag_id,x=x,y=y")).unwrap();
+        let (mut agree, mut walking) = (0, 0);
+        for (a, b) in n.tracks.iter().zip(&p.tracks) {
+            for (ra, rb) in a.rows.iter().zip(&b.rows).skip(1) {
+                if ra.speed > 0.8 {
+                    walking += 1;
+                    let d = (ra.angle - rb.angle).rem_euclid(std::f64::consts::TAU);
+                    agree += (d.min(std::f64::consts::TAU - d) < 0.5) as usize;
+                }
+            }
+        }
+        assert!(
+            walking > 3000 && agree as f64 > 0.9 * walking as f64,
+            "{agree}/{walking}"
+        );
+    }
+}

@@ -1,0 +1,753 @@
+//! Options beyond the paper's method: speed from the map, coasting where the map has no
+//! data, and a score per sample. All are off by default; with [`Options::default`]
+//! [`predict_with`] is [`predict`](super::predict), byte for byte.
+//!
+//! * **Speed kernel** ([`Options::speed_beta`] > 0): at each step the speed is drawn
+//!   with the direction (from the chosen component's bivariate normal, the speed given
+//!   the drawn direction) and the current speed `v` moves towards the drawn speed `r` as
+//!   the heading does towards the drawn direction:
+//!   `v <- v + lambda * (r - v)`, `lambda = exp(-speed_beta * (r - v)^2)` (m/s). The
+//!   paper keeps the observed speed.
+//! * **Coasting** ([`Options::coast`] > 0 seconds): a sample that reaches a position with
+//!   no map location near does not stop there (the paper's rule) but goes on at constant
+//!   velocity for up to `floor(coast / dt)` positions; back near a location it samples
+//!   the map again (and may coast again later). A start with no location near coasts too.
+//! * **Scores** ([`Options::scores`]): every sample gets the log-likelihood of its
+//!   rollout under the map, summed over the `steps` of the horizon. A step taken from a
+//!   map location adds the log-density of the step's velocity (the heading and speed after
+//!   the update) under that location's mixture ([`CliffMap::log_density`]); any other
+//!   step (coasting, after the sample ended, or every step of constant velocity far from
+//!   the map) adds [`NO_LOCATION_LOG_DENSITY`], the log-density of a uniform velocity
+//!   over all headings and speeds of 0 to 2 m/s. Scores compare samples of the same
+//!   call; [`TrajectoryBatch::best_sample`] picks the most likely.
+//!
+//! The draws: with the speed kernel, each live sample's draw takes one uniform and two
+//! normals (direction, then speed) instead of one uniform and one normal; coasting
+//! samples draw nothing. Scores draw nothing.
+//!
+//! ```
+//! use cliff::map::CliffMap;
+//! use cliff::motion::State;
+//! use cliff::predict::{predict_with, Options, Params, TrajectoryBatch};
+//! use glam::DVec2;
+//!
+//! let map = CliffMap::demo();
+//! let walker = State { position: DVec2::new(-10.0, 0.5), speed: 1.2, heading: 0.0, time: 0.0 };
+//! let opts = Options { speed_beta: 2.0, coast: 4.0, scores: true };
+//! let mut batch = TrajectoryBatch::new();
+//! predict_with(&map, &[walker], &Params::default(), &opts, &mut batch).unwrap();
+//! let best = batch.best_sample(0).unwrap();
+//! assert!(batch.scores().iter().all(|s| *s <= batch.score(0, best).unwrap()));
+//! ```
+
+use std::f64::consts::PI;
+
+use glam::DVec2;
+use rand::SeedableRng;
+use rand_xoshiro::Xoshiro256PlusPlus;
+
+use super::{
+    BatchMut, HeadingRule, MAX_LANES, Method, Params, PredictError, TrajectoryBatch, check_call,
+    fastmath, predict_into, turn4,
+};
+use crate::map::{CliffMap, Lookup, wrap_2pi};
+use crate::motion::State;
+
+/// Log-density of a step without a map location in a sample's score: a uniform
+/// velocity over headings `[0, 2pi)` and speeds `[0, 2]` m/s, `-ln(4 pi)`.
+pub const NO_LOCATION_LOG_DENSITY: f64 = -2.531_024_246_969_290_7;
+
+/// Options beyond the paper's method (see the [module documentation](self)).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Options {
+    /// Speed kernel parameter (per (m/s)^2); 0 keeps the observed speed (the paper).
+    pub speed_beta: f64,
+    /// Seconds a sample goes on at constant velocity where the map has no location near;
+    /// 0 stops it there (the paper).
+    pub coast: f64,
+    /// Compute a score per sample ([`TrajectoryBatch::scores`]).
+    pub scores: bool,
+}
+
+impl Options {
+    /// True when every option is off: the paper's method.
+    pub fn is_paper(&self) -> bool {
+        self.speed_beta == 0.0 && self.coast == 0.0 && !self.scores
+    }
+
+    /// Check the options; the error names the first unusable one.
+    pub fn validate(&self) -> Result<(), PredictError> {
+        if !(self.speed_beta.is_finite() && self.speed_beta >= 0.0) {
+            return Err(PredictError::Param {
+                name: "speed_beta",
+                why: format!("{} is not a non-negative number", self.speed_beta),
+            });
+        }
+        if !(self.coast.is_finite() && self.coast >= 0.0) {
+            return Err(PredictError::Param {
+                name: "coast",
+                why: format!("{} is not a non-negative number of seconds", self.coast),
+            });
+        }
+        Ok(())
+    }
+
+    fn coast_steps(&self, dt: f64) -> u32 {
+        (self.coast / dt + 1e-9).floor().min(u32::MAX as f64) as u32
+    }
+}
+
+/// [`predict`](super::predict) with [`Options`]: scores, when asked, go to
+/// [`TrajectoryBatch::scores`].
+pub fn predict_with(
+    map: &CliffMap,
+    agents: &[State],
+    params: &Params,
+    options: &Options,
+    out: &mut TrajectoryBatch,
+) -> Result<(), PredictError> {
+    params.validate()?;
+    options.validate()?;
+    out.try_reshape(agents.len(), params.k, params.steps())?;
+    out.try_size_scores(options.scores)?;
+    let (batch, scores) = out.parts_mut();
+    predict_into_with(map, agents, params, options, batch, scores)
+}
+
+/// [`predict_into`] with [`Options`]; `scores` holds one score per sample
+/// (`agents x k`) when [`Options::scores`] is set, and is not touched otherwise (pass
+/// an empty slice).
+pub fn predict_into_with(
+    map: &CliffMap,
+    agents: &[State],
+    params: &Params,
+    options: &Options,
+    out: BatchMut<'_>,
+    scores: &mut [f32],
+) -> Result<(), PredictError> {
+    options.validate()?;
+    if options.is_paper() {
+        return predict_into(map, agents, params, out);
+    }
+    let steps = check_call(agents, params, &out)?;
+    if options.scores && scores.len() != out.lens.len() {
+        return Err(PredictError::Param {
+            name: "scores",
+            why: format!(
+                "the score buffer holds {} values, the call has {} samples",
+                scores.len(),
+                out.lens.len()
+            ),
+        });
+    }
+    let mut rng = Xoshiro256PlusPlus::seed_from_u64(params.seed);
+    if steps == 0 {
+        out.lens.fill(0);
+        if options.scores {
+            scores.fill(0.0);
+        }
+        return Ok(());
+    }
+    match map.lookup(params.radius) {
+        Lookup::Table(t) => roll_all(map, agents, params, options, &mut rng, out, scores, |p| {
+            t.best_near(p)
+        }),
+        Lookup::Grid(m, r) => roll_all(map, agents, params, options, &mut rng, out, scores, |p| {
+            m.best_near(p, r)
+        }),
+    }
+    Ok(())
+}
+
+#[allow(clippy::too_many_arguments)]
+fn roll_all(
+    map: &CliffMap,
+    agents: &[State],
+    params: &Params,
+    options: &Options,
+    rng: &mut Xoshiro256PlusPlus,
+    out: BatchMut<'_>,
+    scores: &mut [f32],
+    near: impl Fn(DVec2) -> Option<usize>,
+) {
+    let steps = params.steps();
+    let k = params.k;
+    for (a, state) in agents.iter().enumerate() {
+        let positions = &mut out.positions[a * k * steps..(a + 1) * k * steps];
+        let lens = &mut out.lens[a * k..(a + 1) * k];
+        let mut scores = options.scores.then(|| &mut scores[a * k..(a + 1) * k]);
+        match params.method {
+            Method::Cvm => {
+                for (s, (track, len)) in positions.chunks_exact_mut(steps).zip(lens).enumerate() {
+                    let v = roll_cvm_scored(map, &near, state, params.dt, track);
+                    *len = steps as u32;
+                    if let Some(sc) = scores.as_deref_mut() {
+                        sc[s] = v as f32;
+                    }
+                }
+            }
+            Method::Cliff => {
+                for (g, (tracks, lens)) in positions
+                    .chunks_mut(MAX_LANES * steps)
+                    .zip(lens.chunks_mut(MAX_LANES))
+                    .enumerate()
+                {
+                    let mut group_scores = [0.0f64; MAX_LANES];
+                    let n = lens.len();
+                    match n {
+                        1..=4 => roll_lanes::<4>(
+                            map,
+                            &near,
+                            state,
+                            params,
+                            options,
+                            rng,
+                            tracks,
+                            lens,
+                            &mut group_scores,
+                        ),
+                        5..=8 => roll_lanes::<8>(
+                            map,
+                            &near,
+                            state,
+                            params,
+                            options,
+                            rng,
+                            tracks,
+                            lens,
+                            &mut group_scores,
+                        ),
+                        9..=12 => roll_lanes::<12>(
+                            map,
+                            &near,
+                            state,
+                            params,
+                            options,
+                            rng,
+                            tracks,
+                            lens,
+                            &mut group_scores,
+                        ),
+                        13..=16 => roll_lanes::<16>(
+                            map,
+                            &near,
+                            state,
+                            params,
+                            options,
+                            rng,
+                            tracks,
+                            lens,
+                            &mut group_scores,
+                        ),
+                        _ => roll_lanes::<MAX_LANES>(
+                            map,
+                            &near,
+                            state,
+                            params,
+                            options,
+                            rng,
+                            tracks,
+                            lens,
+                            &mut group_scores,
+                        ),
+                    }
+                    if let Some(sc) = scores.as_deref_mut() {
+                        for l in 0..n {
+                            sc[g * MAX_LANES + l] = group_scores[l] as f32;
+                        }
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// Constant velocity, scored: each step at the location near the position it starts
+/// from (or [`NO_LOCATION_LOG_DENSITY`]).
+fn roll_cvm_scored(
+    map: &CliffMap,
+    near: &impl Fn(DVec2) -> Option<usize>,
+    state: &State,
+    dt: f64,
+    track: &mut [super::Point],
+) -> f64 {
+    let step = DVec2::from_angle(state.heading) * (state.speed * dt);
+    let (uy, ux) = state.heading.sin_cos();
+    let (ux, uy) = (ux as f32, uy as f32);
+    let mut p = state.position;
+    let mut score = 0.0;
+    for out in track.iter_mut() {
+        score += match near(p) {
+            Some(i) => map.step_log_density(i, ux, uy, state.speed),
+            None => NO_LOCATION_LOG_DENSITY,
+        };
+        p += step;
+        *out = [p.x as f32, p.y as f32];
+    }
+    score
+}
+
+/// Up to `N` samples of one agent with the options; the arithmetic of a sample that
+/// neither coasts nor changes speed is that of `roll_cliff_lanes` (same draws, same
+/// bytes).
+#[allow(clippy::too_many_arguments)]
+#[inline(never)]
+fn roll_lanes<const N: usize>(
+    map: &CliffMap,
+    near: &impl Fn(DVec2) -> Option<usize>,
+    state: &State,
+    params: &Params,
+    options: &Options,
+    rng: &mut Xoshiro256PlusPlus,
+    tracks: &mut [super::Point],
+    lens: &mut [u32],
+    scores: &mut [f64; MAX_LANES],
+) {
+    let n = lens.len();
+    debug_assert!(n <= N && N.is_multiple_of(4) && N <= MAX_LANES);
+    let steps = tracks.len() / n;
+    let dt = params.dt;
+    let with_speed = options.speed_beta > 0.0;
+    let coast_steps = options.coast_steps(dt);
+    let theta0 = wrap_2pi(state.heading);
+    let (s0, c0) = fastmath::sin_cos(theta0);
+    let start = near(state.position);
+    let mut px = [state.position.x; N];
+    let mut py = [state.position.y; N];
+    let mut ux = [c0 as f32; N];
+    let mut uy = [s0 as f32; N];
+    let mut theta = [theta0; N];
+    let mut speed = [state.speed; N];
+    let mut loc = [start.unwrap_or(0); N];
+    // alive: the sample goes on; on_map: it has a location to sample from
+    let mut alive = [false; N];
+    let mut on_map = [false; N];
+    let mut coast_left = [coast_steps; N];
+    for l in 0..n {
+        on_map[l] = start.is_some();
+        alive[l] = start.is_some() || coast_steps > 0;
+    }
+    let mut ts = [0.0f64; N];
+    let mut rs = [0.0f64; N];
+    let mut step_score = [0.0f64; N];
+    let mut score = [0.0f64; N];
+    lens.fill(0);
+    for j in 0..steps {
+        // Phase 1: draw at each sampling lane's location (in lane order).
+        let mut drawing = [false; N];
+        for l in 0..N {
+            if alive[l] && on_map[l] {
+                drawing[l] = true;
+                if with_speed {
+                    (ts[l], rs[l]) = map.velocity_at(loc[l], rng);
+                } else {
+                    ts[l] = map.direction_at(loc[l]).sample_unwrapped(rng);
+                }
+            }
+        }
+        // Phase 2: turn (the lanes that drew), change speed, score, move.
+        let (old_ux, old_uy, old_theta) = (ux, uy, theta);
+        match params.heading {
+            HeadingRule::CircularMean => {
+                let ts32: [f32; N] = std::array::from_fn(|l| ts[l] as f32);
+                let beta = params.beta as f32;
+                let (ts4, _) = ts32.as_chunks::<4>();
+                let (ux4, _) = ux.as_chunks_mut::<4>();
+                let (uy4, _) = uy.as_chunks_mut::<4>();
+                for ((t, hx), hy) in ts4.iter().zip(ux4).zip(uy4) {
+                    turn4(t, hx, hy, beta);
+                }
+            }
+            HeadingRule::Paper => {
+                for l in 0..N {
+                    let mut signed = wrap_2pi(ts[l]) - theta[l];
+                    if signed > PI {
+                        signed -= 2.0 * PI;
+                    } else if signed < -PI {
+                        signed += 2.0 * PI;
+                    }
+                    let lambda = fastmath::exp_neg(-params.beta * signed * signed);
+                    theta[l] = wrap_2pi(theta[l] + lambda * signed);
+                    let (sin, cos) = fastmath::sin_cos(theta[l]);
+                    ux[l] = cos as f32;
+                    uy[l] = sin as f32;
+                }
+            }
+        }
+        for l in 0..N {
+            if !drawing[l] {
+                // coasting: heading and speed stay
+                ux[l] = old_ux[l];
+                uy[l] = old_uy[l];
+                theta[l] = old_theta[l];
+                step_score[l] = NO_LOCATION_LOG_DENSITY;
+                continue;
+            }
+            if with_speed {
+                let d = rs[l] - speed[l];
+                let lambda = (-options.speed_beta * d * d).exp();
+                speed[l] += lambda * d;
+            }
+            if options.scores {
+                step_score[l] = map.step_log_density(loc[l], ux[l], uy[l], speed[l]);
+            }
+        }
+        for l in 0..N {
+            let dist = speed[l] * dt;
+            px[l] += ux[l] as f64 * dist;
+            py[l] += uy[l] as f64 * dist;
+        }
+        // Phase 3: look up the new positions; off the map a lane coasts or ends.
+        let mut any = false;
+        for l in 0..N {
+            if !alive[l] {
+                continue;
+            }
+            match near(DVec2::new(px[l], py[l])) {
+                Some(next) => {
+                    loc[l] = next;
+                    on_map[l] = true;
+                    coast_left[l] = coast_steps;
+                }
+                None if coast_left[l] > 0 => {
+                    coast_left[l] -= 1;
+                    on_map[l] = false;
+                }
+                None => {
+                    alive[l] = false;
+                    continue;
+                }
+            }
+            tracks[l * steps + j] = [px[l] as f32, py[l] as f32];
+            lens[l] = j as u32 + 1;
+            score[l] += step_score[l];
+            any = true;
+        }
+        if !any {
+            break;
+        }
+    }
+    for (l, &len) in lens.iter().enumerate() {
+        tracks[l * steps + len as usize..(l + 1) * steps].fill([f32::NAN; 2]);
+        scores[l] = score[l] + (steps - len as usize) as f64 * NO_LOCATION_LOG_DENSITY;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::map::{Component, Location};
+    use crate::predict::predict;
+
+    fn walker(x: f64, y: f64, heading: f64, speed: f64) -> State {
+        State {
+            position: DVec2::new(x, y),
+            speed,
+            heading,
+            time: 0.0,
+        }
+    }
+
+    /// Locations on a 1 m grid over x in [x0, x1], y in [-3, 3], all saying "theta at rho".
+    fn flow(x0: i32, x1: i32, theta: f64, rho: f64) -> CliffMap {
+        let mut locs = vec![];
+        for ix in x0..=x1 {
+            for iy in -3..=3 {
+                locs.push(Location {
+                    position: DVec2::new(ix as f64, iy as f64),
+                    components: vec![Component {
+                        theta,
+                        rho,
+                        cov: [0.01, 0.0, 0.0, 0.01],
+                        weight: 1.0,
+                    }],
+                    motion_ratio: 1.0,
+                    observation_ratio: 1.0,
+                });
+            }
+        }
+        CliffMap::new(locs).unwrap()
+    }
+
+    fn bits(b: &TrajectoryBatch) -> Vec<u32> {
+        b.positions()
+            .iter()
+            .flatten()
+            .map(|v| v.to_bits())
+            .collect()
+    }
+
+    #[test]
+    fn scores_alone_leave_the_samples_byte_identical() {
+        let map = CliffMap::demo();
+        let agents = [
+            walker(-10.0, 0.5, 0.0, 1.2),
+            walker(0.5, -6.0, PI / 2.0, 1.0),
+        ];
+        for heading in [HeadingRule::CircularMean, HeadingRule::Paper] {
+            for k in [3, 12, 20, 27] {
+                let p = Params {
+                    k,
+                    seed: 7,
+                    heading,
+                    ..Params::default()
+                };
+                let (mut a, mut b) = (TrajectoryBatch::new(), TrajectoryBatch::new());
+                predict(&map, &agents, &p, &mut a).unwrap();
+                let opts = Options {
+                    scores: true,
+                    ..Options::default()
+                };
+                predict_with(&map, &agents, &p, &opts, &mut b).unwrap();
+                assert_eq!(bits(&a), bits(&b), "{heading:?} k {k}");
+                assert_eq!(a.lens(), b.lens());
+                assert!(a.scores().is_empty());
+                assert_eq!(b.scores().len(), 2 * k);
+                assert!(b.scores().iter().all(|s| s.is_finite() && *s < 30.0 * 3.0));
+                // distinct samples, distinct scores
+                assert!(b.scores().windows(2).any(|w| w[0] != w[1]));
+                // a later call without scores empties them
+                predict(&map, &agents, &p, &mut b).unwrap();
+                assert!(b.scores().is_empty() && b.score(0, 0).is_none());
+            }
+        }
+    }
+
+    #[test]
+    fn a_sample_along_the_flow_scores_higher_than_one_against_it() {
+        // everything flows east at 1 m/s
+        let map = flow(-5, 30, 0.0, 1.0);
+        let opts = Options {
+            scores: true,
+            ..Options::default()
+        };
+        let p = Params {
+            k: 4,
+            dt: 1.0,
+            horizon: 5.0,
+            radius: 1.0,
+            ..Params::default()
+        };
+        let mut b = TrajectoryBatch::new();
+        // east along the flow; west against it (the kernel barely turns a heading pi away)
+        let agents = [walker(0.0, 0.0, 0.0, 1.0), walker(20.0, 0.0, PI, 1.0)];
+        predict_with(&map, &agents, &p, &opts, &mut b).unwrap();
+        for s in 0..4 {
+            assert_eq!((b.len(0, s), b.len(1, s)), (5, 5));
+            let (along, against) = (b.score(0, s).unwrap(), b.score(1, s).unwrap());
+            // along: 5 steps near the density's peak (ln(1 / (2 pi 0.01)) = 2.77; a
+            // heading drawn 0.1 rad off costs 0.5)
+            assert!(along > 5.0 * 1.0 && along < 5.0 * 2.77, "{along}");
+            assert!(against < -1000.0, "{against}");
+        }
+        // constant velocity is scored by the same rule
+        let cvm = Params {
+            method: Method::Cvm,
+            k: 1,
+            ..p
+        };
+        predict_with(&map, &agents, &cvm, &opts, &mut b).unwrap();
+        assert!(b.score(0, 0).unwrap() > 10.0 && b.score(1, 0).unwrap() < -1000.0);
+        // and the best of a mixed call is the one along the flow
+        let map2 = CliffMap::new(
+            map.locations()
+                .iter()
+                .map(|l| Location {
+                    components: vec![
+                        Component {
+                            weight: 0.5,
+                            ..l.components[0]
+                        },
+                        Component {
+                            theta: PI / 2.0,
+                            weight: 0.5,
+                            ..l.components[0]
+                        },
+                    ],
+                    ..l.clone()
+                })
+                .collect(),
+        )
+        .unwrap();
+        let p = Params {
+            k: 20,
+            beta: 0.2,
+            ..p
+        };
+        predict_with(&map2, &agents[..1], &p, &opts, &mut b).unwrap();
+        let best = b.best_sample(0).unwrap();
+        assert!(b.scores().iter().all(|s| *s <= b.score(0, best).unwrap()));
+    }
+
+    #[test]
+    fn coasting_goes_on_straight_for_the_bounded_time() {
+        // the map covers x in [0, 3]; walking east from 0 at 1 m/s, 1 s steps
+        let map = flow(0, 3, 0.0, 1.0);
+        let p = Params {
+            k: 2,
+            dt: 1.0,
+            horizon: 10.0,
+            radius: 0.9,
+            ..Params::default()
+        };
+        let mut b = TrajectoryBatch::new();
+        let agents = [walker(0.0, 0.0, 0.0, 1.0), walker(-2.0, 0.0, 0.0, 1.0)];
+        predict(&map, &agents, &p, &mut b).unwrap();
+        // the paper: x = 4 has no location near: the sample ends after x = 3; off the map
+        // from the start: nothing
+        assert_eq!((b.len(0, 0), b.len(1, 0)), (3, 0));
+        let opts = Options {
+            coast: 2.5,
+            scores: true,
+            ..Options::default()
+        };
+        predict_with(&map, &agents, &p, &opts, &mut b).unwrap();
+        for s in 0..2 {
+            // 2 positions off the map after x = 3: x = 4, 5
+            let x: Vec<f32> = b.sample(0, s).iter().map(|q| q[0]).collect();
+            assert_eq!(x.len(), 5);
+            let q = b.sample(0, s);
+            assert!((x[4] - 5.0).abs() < 0.15, "{x:?}");
+            // constant velocity: the coasting step repeats the last one
+            for c in 0..2 {
+                assert!(
+                    ((q[4][c] - q[3][c]) - (q[3][c] - q[2][c])).abs() < 1e-4,
+                    "{q:?}"
+                );
+            }
+            // from x = -2: coasts to -1 and 0, samples the map there, on to x = 5
+            let x: Vec<f32> = b.sample(1, s).iter().map(|q| q[0]).collect();
+            assert_eq!(x.len(), 7, "{x:?}");
+            assert!(
+                (x[1] - 0.0).abs() < 1e-3 && (x[6] - 5.0).abs() < 0.15,
+                "{x:?}"
+            );
+        }
+        // score: the steps off the map (2 coasting + 5 after the end) at the uniform rule
+        let s = b.score(0, 0).unwrap() as f64;
+        let on_map = s - 7.0 * NO_LOCATION_LOG_DENSITY;
+        assert!(on_map > 3.0 * 1.0 && on_map < 3.0 * 2.8, "{on_map}");
+    }
+
+    #[test]
+    fn speed_kernel_moves_towards_the_maps_speed() {
+        // the map says 2 m/s east; the walker goes 1 m/s east
+        let map = flow(-5, 60, 0.0, 2.0);
+        let p = Params {
+            k: 8,
+            dt: 1.0,
+            horizon: 10.0,
+            radius: 1.0,
+            ..Params::default()
+        };
+        let step = |b: &TrajectoryBatch, s: usize, j: usize| {
+            let q = b.sample(0, s);
+            DVec2::new(
+                (q[j][0] - q[j - 1][0]) as f64,
+                (q[j][1] - q[j - 1][1]) as f64,
+            )
+            .length()
+        };
+        let mut b = TrajectoryBatch::new();
+        let agents = [walker(0.0, 0.0, 0.0, 1.0)];
+        predict(&map, &agents, &p, &mut b).unwrap();
+        assert!((step(&b, 0, 9) - 1.0).abs() < 1e-3);
+        let opts = Options {
+            speed_beta: 1.0,
+            ..Options::default()
+        };
+        predict_with(&map, &agents, &p, &opts, &mut b).unwrap();
+        let mut mean = 0.0;
+        for s in 0..8 {
+            assert_eq!(b.len(0, s), 10);
+            // the drawn speeds scatter with sd 0.1 around 2
+            let last = step(&b, s, 9);
+            assert!((last - 2.0).abs() < 0.4, "sample {s}: {last}");
+            mean += last / 8.0;
+        }
+        assert!((mean - 2.0).abs() < 0.1, "{mean}");
+        // a kernel so narrow that 1 m/s of difference is ignored keeps the speed
+        let opts = Options {
+            speed_beta: 50.0,
+            ..Options::default()
+        };
+        predict_with(&map, &agents, &p, &opts, &mut b).unwrap();
+        assert!((step(&b, 0, 9) - 1.0).abs() < 0.01);
+    }
+
+    #[test]
+    fn the_loops_density_agrees_with_the_maps() {
+        use rand::RngExt;
+        let path = concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../shared/data/atc/cliffmap-20121024.csv"
+        );
+        let map = CliffMap::load(path).unwrap();
+        let mut rng = Xoshiro256PlusPlus::seed_from_u64(5);
+        let mut worst: f64 = 0.0;
+        for _ in 0..20_000 {
+            let i = rng.random_range(0..map.locations().len());
+            let theta: f64 = rng.random_range(0.0..std::f64::consts::TAU);
+            let rho: f64 = rng.random_range(0.0..2.5);
+            let exact = map.log_density(i, theta, rho);
+            let (s, c) = theta.sin_cos();
+            let fast = map.step_log_density(i, c as f32, s as f32, rho);
+            // Both sum the windings -1, 0, 1, around different centres (the map's
+            // around theta - mu in (-2pi, 2pi), the loop's around the nearest offset):
+            // the same for components narrower than about 1 rad, not for the widest.
+            let narrow = map.locations()[i].components.iter().all(|c| c.cov[0] < 1.0);
+            // (and far in the tails, at a speed many deviations off, a correlated
+            // component's farther winding can dominate either sum)
+            if exact > -30.0 && narrow {
+                // the loop rounds the heading to f32 and uses polynomial exp and ln
+                worst = worst.max((exact - fast).abs());
+            }
+        }
+        assert!(worst < 1e-2, "{worst}");
+    }
+
+    #[test]
+    fn bad_options_are_refused() {
+        let map = CliffMap::demo();
+        let mut b = TrajectoryBatch::new();
+        let w = [walker(0.0, 0.0, 0.0, 1.0)];
+        for (o, name) in [
+            (
+                Options {
+                    speed_beta: -1.0,
+                    ..Options::default()
+                },
+                "speed_beta",
+            ),
+            (
+                Options {
+                    coast: f64::NAN,
+                    ..Options::default()
+                },
+                "coast",
+            ),
+        ] {
+            match predict_with(&map, &w, &Params::default(), &o, &mut b) {
+                Err(PredictError::Param { name: n, .. }) => assert_eq!(n, name),
+                other => panic!("{name}: {other:?}"),
+            }
+        }
+        let mut pos = vec![[0.0f32; 2]; 20 * 30];
+        let mut lens = vec![0u32; 20];
+        let e = predict_into_with(
+            &map,
+            &w,
+            &Params::default(),
+            &Options {
+                scores: true,
+                ..Options::default()
+            },
+            BatchMut {
+                positions: &mut pos,
+                lens: &mut lens,
+            },
+            &mut [],
+        );
+        assert!(matches!(e, Err(PredictError::Param { name: "scores", .. })));
+    }
+}
