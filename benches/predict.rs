@@ -6,7 +6,8 @@
 //! * `atc_person`: the first ATC dev person (hour 13, seconds protocol) with 50 s of
 //!   ground truth, 20 samples, 50 s at 1 s, radius 1, on atc/cliffmap-20121024.csv.
 //! * `cvm_thor1_person`: constant velocity on the THÖR1 person, for scale.
-//! * `..._scores`: the same with a score per sample ([`Options::scores`]); `..._speed_scores`
+//! * `..._coast`: the same with coasting (4 s) where the map has no data, no scores;
+//!   `..._scores`: with a score per sample ([`Options::scores`]); `..._speed_scores`
 //!   also with the speed kernel (speed_beta 1) and coasting (4 s).
 //!
 //! Run: `cargo bench --bench predict`
@@ -78,7 +79,12 @@ fn bench(c: &mut Criterion) {
         coast: 4.0,
         scores: true,
     };
+    let coast = Options {
+        coast: 4.0,
+        ..Options::default()
+    };
     for (name, opts) in [
+        ("thor1_person_k20_30steps_coast", coast),
         ("thor1_person_k20_30steps_scores", scores),
         ("thor1_person_k20_30steps_speed_scores", speed_scores),
     ] {

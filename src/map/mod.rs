@@ -509,6 +509,10 @@ impl CliffMap {
                 rho: g.mu[1],
                 inv: g.inv,
                 log_norm: g.log_norm,
+                // the heading's variance given the speed is 1 / inv_tt, its mean moves by
+                // -inv_tr / inv_tt per m/s of speed offset
+                wide: 1.0 / g.inv[0] > NARROW_SD * NARROW_SD,
+                slope: -g.inv[1] / g.inv[0],
             })
             .collect();
         let (comp_start, table) = pad_components(comp_start, table);
@@ -763,7 +767,8 @@ impl CliffMap {
 impl CliffMap {
     /// [`log_density`](Self::log_density) for the prediction loop: the heading given as
     /// a unit vector `(ux, uy)` (its angle in single precision) and short polynomial
-    /// kernels. It sums the windings -1, 0, 1 around the nearest offset of the heading
+    /// kernels. It sums the windings -1, 0, 1 (only the two likeliest for components
+    /// narrower than 0.8 rad given the speed) around the nearest offset of the heading
     /// from each mean, [`log_density`](Self::log_density) around `theta - mu` in
     /// `(-2pi, 2pi)`: the two agree (within 1e-2) for components narrower than about
     /// 1 rad away from the far tails, and differ for the widest.
@@ -779,7 +784,7 @@ impl CliffMap {
             let cross = uy * c.cos_mu - ux * c.sin_mu;
             let d0 = acos_f32(dot).copysign(cross) as f64;
             let dr = rho - c.rho;
-            for d in [d0 - TAU, d0, d0 + TAU] {
+            let mut add = |d: f64| {
                 let q = c.inv[0] * d * d + 2.0 * c.inv[1] * d * dr + c.inv[2] * dr * dr;
                 let v = c.log_norm - 0.5 * q;
                 if v > m {
@@ -788,6 +793,16 @@ impl CliffMap {
                 } else {
                     sum += exp_neg(v - m);
                 }
+            };
+            if c.wide {
+                add(d0 - TAU);
+                add(d0);
+                add(d0 + TAU);
+            } else {
+                // the two windings on either side of the heading's mean given the speed
+                let n = ((c.slope * dr - d0) / TAU).floor();
+                add(d0 + TAU * n);
+                add(d0 + TAU * (n + 1.0));
             }
         }
         if m == f64::NEG_INFINITY {
@@ -806,7 +821,17 @@ struct StepDensity {
     rho: f64,
     inv: [f64; 3],
     log_norm: f64,
+    /// Heading deviation given the speed above [`NARROW_SD`]: three windings count.
+    wide: bool,
+    /// Change of the heading's mean given the speed, per m/s of speed offset.
+    slope: f64,
 }
+
+/// A component whose heading deviates less than this (rad) given the speed gets only
+/// two windings in [`CliffMap::step_log_density`], the ones on either side of the
+/// heading's mean given the speed: any other is at least 2 pi from that mean, a share
+/// below `exp(-(2 pi)^2 / (2 * 0.8^2))`, 4e-14, of the density.
+const NARROW_SD: f64 = 0.8;
 
 /// Covariance eigenvalue floor of [`CliffMap::log_density`] (as in `cliff map score`).
 const SCORE_EIGENVALUE_FLOOR: f64 = 1e-4;
