@@ -34,16 +34,18 @@ fn odd(rng: &mut impl Rng) -> f64 {
 
 /// A valid request in the demo hall, small enough to predict quickly.
 fn valid(rng: &mut impl Rng) -> (RequestHeader, Vec<Observation>) {
-    let mut h = RequestHeader::default();
-    h.k = rng.random_range(1..=6);
-    h.agents = rng.random_range(1..=4);
-    h.dt = [0.4, 1.0, 0.1][rng.random_range(0..3)];
-    h.horizon = rng.random_range(0.0..8.0);
-    h.radius = rng.random_range(0.1..3.0);
-    h.beta = rng.random_range(0.0..3.0);
-    h.method = rng.random_range(0..2);
-    h.heading_rule = rng.random_range(0..2);
-    h.seed = rng.random();
+    let h = RequestHeader {
+        k: rng.random_range(1..=6),
+        agents: rng.random_range(1..=4),
+        dt: [0.4, 1.0, 0.1][rng.random_range(0..3)],
+        horizon: rng.random_range(0.0..8.0),
+        radius: rng.random_range(0.1..3.0),
+        beta: rng.random_range(0.0..3.0),
+        method: rng.random_range(0..2),
+        heading_rule: rng.random_range(0..2),
+        seed: rng.random(),
+        ..RequestHeader::default()
+    };
     let mut rows = Vec::new();
     for a in 0..h.agents {
         let velocity = rng.random_bool(0.5);

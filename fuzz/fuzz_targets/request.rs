@@ -48,6 +48,22 @@ impl Code {
     }
 }
 
+/// A small count (0 to 15: across the limits) or any `u32`.
+#[derive(Debug, Arbitrary)]
+enum Count {
+    Small(u8),
+    Raw(u32),
+}
+
+impl Count {
+    fn get(&self) -> u32 {
+        match *self {
+            Count::Small(c) => (c % 16) as u32,
+            Count::Raw(v) => v,
+        }
+    }
+}
+
 #[derive(Debug, Arbitrary)]
 struct Row {
     agent: Code,
@@ -67,8 +83,8 @@ struct Input {
     request_id: u64,
     method: Code,
     heading_rule: Code,
-    k: Code,
-    agents: Code,
+    k: Count,
+    agents: Count,
     dt: Num,
     horizon: Num,
     beta: Num,
