@@ -33,7 +33,9 @@ use std::str::FromStr;
 
 use glam::DVec2;
 
-use super::dataset::{DatasetError, Format, Row, Track, read_many};
+use super::dataset::{
+    DatasetError, Format, MAX_ANGLE, MAX_POSITION, MAX_SPEED, MAX_TIME, Row, Track, read_many,
+};
 
 /// Which header column holds each field. Optional fields may be left out (see the
 /// module documentation for how the velocity is found).
@@ -300,6 +302,19 @@ pub fn parse_named(text: &str, file: &str, columns: &Columns) -> Result<NamedTra
                 ))
             }
         };
+        // the same bounds as the THÖR and ATC readers
+        let within = |c: usize, max: f64| -> Result<f64, DatasetError> {
+            let v = num(c)?;
+            if v.abs() <= max {
+                Ok(v)
+            } else {
+                Err(err(
+                    line,
+                    c + 1,
+                    format!("{}: {v} is beyond {max}", header[c]),
+                ))
+            }
+        };
         let id = fields[cid];
         if id.is_empty() {
             return Err(err(
@@ -308,15 +323,15 @@ pub fn parse_named(text: &str, file: &str, columns: &Columns) -> Result<NamedTra
                 format!("{}: empty agent id", header[cid]),
             ));
         }
-        let t = num(ct)?;
-        let position = DVec2::new(num(cx)?, num(cy)?);
+        let t = within(ct, MAX_TIME)?;
+        let position = DVec2::new(within(cx, MAX_POSITION)?, within(cy, MAX_POSITION)?);
         let v = match (cvx, cvy) {
-            (Some(a), Some(b)) => Some(DVec2::new(num(a)?, num(b)?)),
+            (Some(a), Some(b)) => Some(DVec2::new(within(a, MAX_SPEED)?, within(b, MAX_SPEED)?)),
             _ => None,
         };
         let speed = match cspeed {
             Some(c) => {
-                let s = num(c)?;
+                let s = within(c, MAX_SPEED)?;
                 if s < 0.0 {
                     return Err(err(
                         line,
@@ -329,7 +344,7 @@ pub fn parse_named(text: &str, file: &str, columns: &Columns) -> Result<NamedTra
             None => v.map(|v| v.length()),
         };
         let angle = match cangle {
-            Some(c) => Some(num(c)?),
+            Some(c) => Some(within(c, MAX_ANGLE)?),
             None => v.map(heading_of),
         };
         let i = *index.entry(id.to_string()).or_insert_with(|| {
@@ -508,6 +523,12 @@ mod tests {
             e(&format!("{head}0,H_1,0,0,-1,0,0\n")).contains("column 5: speed: negative speed")
         );
         assert!(e(&format!("{head}0,,0,0,0,0,0\n")).contains("column 2: ag_id: empty agent id"));
+        assert!(
+            e(&format!("{head}0,H_1,1e20,0,0,0,0\n"))
+                .contains("m.csv:2: column 3: x: 100000000000000000000 is beyond 1000000")
+        );
+        assert!(e(&format!("{head}1e300,H_1,0,0,0,0,0\n")).contains("column 1: Time:"));
+        assert!(e(&format!("{head}0,H_1,0,0,0,1e9,0\n")).contains("column 6: x_speed:"));
         assert!(
             e(&format!("{head}1,H_1,0,0,0,0,0\n1,H_1,0,0,0,0,0\n"))
                 .contains("m.csv:3: column 1: time 1 of agent H_1 does not increase")
