@@ -12,6 +12,9 @@
 //! version. Dead clients' resources are cleaned up once a second.
 #![warn(missing_docs)]
 
+#[cfg(feature = "zenoh")]
+pub mod zenoh;
+
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc;
@@ -124,6 +127,9 @@ pub enum StartError {
     /// Another daemon already serves the service.
     #[error("another cliffd already serves '{0}' (stop it, or use another --service or --prefix)")]
     AlreadyServed(String),
+    /// zenoh refused (endpoint in use, bad configuration).
+    #[error("zenoh: {0}")]
+    Zenoh(String),
 }
 
 struct LoadedMap {
@@ -175,7 +181,23 @@ pub struct Daemon {
     reload_waiters: Vec<Active>,
     reload_again: bool,
     stats: Stats,
+    /// Remote clients over zenoh, once [`Daemon::serve_zenoh`] started them.
+    #[cfg(feature = "zenoh")]
+    remote: Option<Remote>,
 }
+
+/// The zenoh frontend and the buffers its requests are decoded and predicted into.
+#[cfg(feature = "zenoh")]
+struct Remote {
+    frontend: zenoh::ZenohFrontend,
+    scratch: DecodeScratch,
+    payload: Vec<u32>,
+}
+
+/// Remote requests answered per sweep at most, so that local ones arriving meanwhile
+/// are served between them.
+#[cfg(feature = "zenoh")]
+const REMOTE_PER_SWEEP: usize = 4;
 
 fn ipc(what: &str, e: impl std::fmt::Debug) -> StartError {
     StartError::Ipc(format!("{what}: {e:?}"))
@@ -332,6 +354,8 @@ impl Daemon {
             reload_waiters: Vec::new(),
             reload_again: false,
             stats: Stats::default(),
+            #[cfg(feature = "zenoh")]
+            remote: None,
             settings,
         })
     }
@@ -355,6 +379,88 @@ impl Daemon {
     /// Counters so far.
     pub fn stats(&self) -> Stats {
         self.stats
+    }
+
+    /// Also serve remote clients over zenoh (same validation, limits and predictions);
+    /// returns what it serves on, for the ready line. zenoh runs on its own threads and
+    /// wakes the serving loop through the iceoryx2 request event.
+    #[cfg(feature = "zenoh")]
+    pub fn serve_zenoh(&mut self, settings: &zenoh::ZenohSettings) -> Result<String, StartError> {
+        let waker =
+            zenoh::RequestWaker::open(&self.settings.service, self.settings.prefix.as_deref())?;
+        let limits = self.settings.limits;
+        let frontend = zenoh::ZenohFrontend::start(settings, &limits, move || waker.wake())?;
+        let description = frontend.description().to_string();
+        info!(zid = %frontend.zid(), "serving remote clients on {description}");
+        self.remote = Some(Remote {
+            frontend,
+            scratch: DecodeScratch::new(&limits),
+            payload: Vec::with_capacity(limits.max_payload_words()),
+        });
+        Ok(description)
+    }
+
+    /// Answer up to [`REMOTE_PER_SWEEP`] remote requests: decode, predict into the
+    /// reused buffer, reply (the reply thread sends it); true when there was one.
+    #[cfg(feature = "zenoh")]
+    fn serve_remote(&mut self) -> bool {
+        let Some(remote) = self.remote.as_mut() else {
+            return false;
+        };
+        let mut any = false;
+        for _ in 0..REMOTE_PER_SWEEP {
+            let Some(req) = remote.frontend.try_next() else {
+                break;
+            };
+            any = true;
+            let h = *req.header();
+            let decoded = decode(
+                &self.maps,
+                &self.settings.limits,
+                &h,
+                req.rows(),
+                &mut remote.scratch,
+            );
+            let sent = match decoded {
+                Ok((map, params)) => {
+                    let states = remote.scratch.states();
+                    let words = protocol::payload_words(states.len(), params.k, params.steps());
+                    remote.payload.clear();
+                    remote.payload.resize(words, 0);
+                    let mut ok = false;
+                    Job {
+                        map: &self.maps[map].map,
+                        states,
+                        params,
+                        out: &mut remote.payload,
+                        ok: &mut ok,
+                    }
+                    .run();
+                    if ok {
+                        self.stats.served += 1;
+                        let rh = ResponseHeader {
+                            agents: states.len() as u32,
+                            k: params.k as u32,
+                            steps: params.steps() as u32,
+                            ..response_header(&h, Duration::ZERO)
+                        };
+                        req.reply(&rh, &remote.payload)
+                    } else {
+                        self.stats.rejected += 1;
+                        req.reject(&internal())
+                    }
+                }
+                Err(rej) => {
+                    debug!(request_id = h.request_id, "remote request rejected: {rej}");
+                    self.stats.rejected += 1;
+                    req.reject(&rej)
+                }
+            };
+            if !sent {
+                self.stats.failed += 1;
+            }
+        }
+        any
     }
 
     /// Names of the loaded maps.
@@ -453,8 +559,12 @@ impl Daemon {
                 }
             }
         }
+        #[cfg(feature = "zenoh")]
+        let remote = self.serve_remote();
+        #[cfg(not(feature = "zenoh"))]
+        let remote = false;
         if self.batch.is_empty() {
-            return false;
+            return remote;
         }
         self.serve_batch();
         true
