@@ -237,7 +237,7 @@ pub fn decode_request(
         });
     }
     let body = bytes.len() - REQUEST_HEADER_BYTES;
-    if body % ROW_BYTES != 0 {
+    if !body.is_multiple_of(ROW_BYTES) {
         return Err(WireError::Ragged {
             len: body,
             unit: ROW_BYTES,
@@ -317,7 +317,7 @@ pub fn decode_response(
         });
     }
     let body = bytes.len() - RESPONSE_HEADER_BYTES;
-    if body % 4 != 0 {
+    if !body.is_multiple_of(4) {
         return Err(WireError::Ragged { len: body, unit: 4 });
     }
     let words = body / 4;
