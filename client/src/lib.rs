@@ -612,6 +612,8 @@ impl Client {
         let id = self.next_id;
         self.next_id = self.next_id.wrapping_add(1);
         let awake_at_start = self.daemon_awake_at(start);
+        // one arm without the zenoh feature
+        #[allow(clippy::infallible_destructuring_match)]
         let ipc = match &mut self.transport {
             Transport::Ipc(ipc) => ipc,
             #[cfg(feature = "zenoh")]
@@ -730,6 +732,7 @@ pub(crate) enum Answer {
     /// In shared memory (iceoryx2).
     Shm(RawResponse),
     /// The header; the payload is in the client's buffer ([`Client::buffered_payload`]).
+    #[cfg_attr(not(feature = "zenoh"), allow(dead_code))]
     Buffered(ResponseHeader),
 }
 

@@ -139,21 +139,31 @@ fn the_readme_lan_setup_serves_listed_robots_and_nobody_else() {
 
     // robot-1 is on the list
     let robot = docs_config("robot.json5", &dir, "robot-1");
-    let mut c = Client::connect_zenoh_with(&[ep.clone()], Some(&robot), SERVICE, options.clone())
-        .expect("robot-1 connects over mutual TLS");
+    let mut c = Client::connect_zenoh_with(
+        std::slice::from_ref(&ep),
+        Some(&robot),
+        SERVICE,
+        options.clone(),
+    )
+    .expect("robot-1 connects over mutual TLS");
     let p = c.predict(&req).expect("robot-1 is served");
     assert_eq!(bits(p.positions(), p.lens()), want);
 
     // a certificate from the same CA but not on the list: connected, never answered
     let intruder = docs_config("robot.json5", &dir, "intruder");
-    let mut c =
-        Client::connect_zenoh_with(&[ep.clone()], Some(&intruder), SERVICE, options.clone())
-            .expect("the intruder's TLS handshake succeeds");
+    let mut c = Client::connect_zenoh_with(
+        std::slice::from_ref(&ep),
+        Some(&intruder),
+        SERVICE,
+        options.clone(),
+    )
+    .expect("the intruder's TLS handshake succeeds");
     let e = c.predict(&req).unwrap_err();
     assert!(matches!(e, Error::NoDaemon { .. }), "{e}");
 
     // no client certificate, or plain TCP: no session at all
-    let e = Client::connect_zenoh_with(&[ep.clone()], None, SERVICE, options.clone()).unwrap_err();
+    let e = Client::connect_zenoh_with(std::slice::from_ref(&ep), None, SERVICE, options.clone())
+        .unwrap_err();
     assert!(matches!(e, Error::NoDaemon { .. }), "{e}");
     let e = Client::connect_zenoh(&format!("tcp/127.0.0.1:{PORT_TLS}"), SERVICE).unwrap_err();
     assert!(matches!(e, Error::NoDaemon { .. }), "{e}");
