@@ -34,6 +34,9 @@
 // iceoryx2 failed.
 #define CLIFF_ERR_IPC 7
 
+// zenoh failed (configuration, session) or answered with an error.
+#define CLIFF_ERR_ZENOH 8
+
 // Wait mode: busy-poll.
 #define CLIFF_WAIT_SPIN 0
 
@@ -113,6 +116,24 @@ void cliff_params_default(struct CliffParams *out);
 // # Safety
 // `service` and `prefix` are null or NUL-terminated strings; `out` is a valid pointer.
 int32_t cliff_client_connect(const char *service, const char *prefix, struct CliffClient **out);
+
+#if defined(CLIFF_CLIENT_ZENOH)
+// Connect over zenoh to the daemon serving `service` (NULL: "cliff/predict") that
+// listens on `endpoint` (e.g. "tcp/192.0.2.7:7447"; NULL when `config_file` names the
+// endpoints). `config_file` (NULL: none) is a zenoh configuration file (TLS
+// certificates, ...). Deadline 1 s (`cliff_client_set_deadline_us`); the wait mode does
+// not apply (a zenoh client blocks on its reply). `CLIFF_ERR_NO_DAEMON` when nothing
+// answers at the endpoint. Only in a library built with the cargo feature `zenoh`:
+// define `CLIFF_CLIENT_ZENOH` before including this header to declare it.
+//
+// # Safety
+// `endpoint`, `service` and `config_file` are null or NUL-terminated strings; `out` is
+// a valid pointer.
+int32_t cliff_client_connect_zenoh(const char *endpoint,
+                                   const char *service,
+                                   const char *config_file,
+                                   struct CliffClient **out);
+#endif
 
 // Close the client (releases a held prediction). NULL is ignored.
 //

@@ -26,7 +26,7 @@ use std::time::Duration;
 use cliff::predict::{HeadingRule, Method, Params};
 
 use crate::protocol::{HEADING_PAPER, METHOD_CVM, Observation, Status};
-use crate::{Client, ClientOptions, Error, RawResponse, Request, WaitMode, split_payload};
+use crate::{Answer, Client, ClientOptions, Error, RawResponse, Request, WaitMode, split_payload};
 
 /// Success.
 pub const CLIFF_OK: i32 = 0;
@@ -44,6 +44,8 @@ pub const CLIFF_ERR_INVALID: i32 = 5;
 pub const CLIFF_ERR_PROTOCOL: i32 = 6;
 /// iceoryx2 failed.
 pub const CLIFF_ERR_IPC: i32 = 7;
+/// zenoh failed (configuration, session) or answered with an error.
+pub const CLIFF_ERR_ZENOH: i32 = 8;
 
 /// Wait mode: busy-poll.
 pub const CLIFF_WAIT_SPIN: u32 = 0;
@@ -124,6 +126,7 @@ fn code_of(e: &Error) -> i32 {
         Error::InvalidRequest(_) => CLIFF_ERR_INVALID,
         Error::Protocol(_) => CLIFF_ERR_PROTOCOL,
         Error::Ipc(_) => CLIFF_ERR_IPC,
+        Error::Zenoh(_) => CLIFF_ERR_ZENOH,
     }
 }
 
@@ -263,6 +266,58 @@ pub unsafe extern "C" fn cliff_client_connect(
         }
     }
     match Client::connect_with(service, options) {
+        Ok(client) => {
+            let b = Box::new(CliffClient { client, held: None });
+            // SAFETY: checked non-null
+            unsafe { out.write(Box::into_raw(b)) };
+            CLIFF_OK
+        }
+        Err(e) => fail(&e),
+    }
+}
+
+/// Connect over zenoh to the daemon serving `service` (NULL: "cliff/predict") that
+/// listens on `endpoint` (e.g. "tcp/192.0.2.7:7447"; NULL when `config_file` names the
+/// endpoints). `config_file` (NULL: none) is a zenoh configuration file (TLS
+/// certificates, ...). Deadline 1 s (`cliff_client_set_deadline_us`); the wait mode does
+/// not apply (a zenoh client blocks on its reply). `CLIFF_ERR_NO_DAEMON` when nothing
+/// answers at the endpoint. Only in a library built with the cargo feature `zenoh`:
+/// define `CLIFF_CLIENT_ZENOH` before including this header to declare it.
+///
+/// # Safety
+/// `endpoint`, `service` and `config_file` are null or NUL-terminated strings; `out` is
+/// a valid pointer.
+#[cfg(feature = "zenoh")]
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn cliff_client_connect_zenoh(
+    endpoint: *const c_char,
+    service: *const c_char,
+    config_file: *const c_char,
+    out: *mut *mut CliffClient,
+) -> i32 {
+    if out.is_null() {
+        return invalid("out is NULL");
+    }
+    // SAFETY (all three): null or NUL-terminated by contract
+    let opt = |p: *const c_char, what: &str| -> Result<Option<String>, i32> {
+        if p.is_null() {
+            Ok(None)
+        } else {
+            unsafe { str_arg(p, what) }.map(|s| Some(s.to_string()))
+        }
+    };
+    let (endpoint, service, config_file) = match (
+        opt(endpoint, "endpoint"),
+        opt(service, "service"),
+        opt(config_file, "config_file"),
+    ) {
+        (Ok(e), Ok(s), Ok(f)) => (e, s, f),
+        (Err(c), _, _) | (_, Err(c), _) | (_, _, Err(c)) => return c,
+    };
+    let service = service.unwrap_or_else(|| crate::DEFAULT_SERVICE.to_string());
+    let endpoints: Vec<String> = endpoint.into_iter().collect();
+    let config = config_file.as_deref().map(std::path::Path::new);
+    match Client::connect_zenoh_with(&endpoints, config, &service, ClientOptions::default()) {
         Ok(client) => {
             let b = Box::new(CliffClient { client, held: None });
             // SAFETY: checked non-null
@@ -483,9 +538,13 @@ pub unsafe extern "C" fn cliff_predict(
         .client
         .round_trip(r.request.header(), r.request.rows(), deadline);
     let code = match result {
-        Ok(resp) => {
-            let h = *resp.user_header();
-            let (pos, lens) = split_payload(&h, resp.payload());
+        Ok(answer) => {
+            let (h, payload) = match &answer {
+                Answer::Shm(resp) => (*resp.user_header(), resp.payload()),
+                // the payload stays in the client's buffer until the next call
+                Answer::Buffered(h) => (*h, c.client.buffered_payload()),
+            };
+            let (pos, lens) = split_payload(&h, payload);
             pred = CliffPrediction {
                 request_id: h.request_id,
                 status: h.status,
@@ -495,7 +554,9 @@ pub unsafe extern "C" fn cliff_predict(
                 positions: pos.as_ptr().cast(),
                 lens: lens.as_ptr(),
             };
-            c.held = Some(resp);
+            if let Answer::Shm(resp) = answer {
+                c.held = Some(resp);
+            }
             CLIFF_OK
         }
         Err(e) => {

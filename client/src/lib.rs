@@ -5,6 +5,10 @@
 //! * [`Client`]: connect to a daemon, send a [`Request`], get a [`Prediction`] that
 //!   borrows the response in shared memory (no copy).
 //! * [`ffi`]: the C ABI (header `client/include/cliff_client.h`).
+//! * [`wire`]: the same messages as little-endian bytes, for transports other than
+//!   iceoryx2 (`docs/zenoh-protocol.md`).
+//! * `zenoh` (feature `zenoh`): [`Client::connect_zenoh`] reaches a daemon on another
+//!   host with the same [`Request`], [`Prediction`] and errors.
 //!
 //! ```no_run
 //! use cliff_client::{Client, Observation, Request};
@@ -43,6 +47,9 @@
 
 pub mod ffi;
 pub mod protocol;
+pub mod wire;
+#[cfg(feature = "zenoh")]
+pub mod zenoh;
 
 use std::fmt;
 use std::marker::PhantomData;
@@ -213,6 +220,9 @@ pub enum Error {
     /// iceoryx2 failed (shared memory, permissions, limits).
     #[error("iceoryx2: {0}")]
     Ipc(String),
+    /// zenoh failed (configuration, session) or answered with an error.
+    #[error("zenoh: {0}")]
+    Zenoh(String),
 }
 
 impl Error {
@@ -308,6 +318,28 @@ impl Request {
 pub struct Client {
     service_name: String,
     options: ClientOptions,
+    transport: Transport,
+    next_id: u64,
+    stale: u64,
+    /// Until when the daemon is expected to poll for requests (from its last response's
+    /// [`ResponseHeader::awake_us`]); `None`: not known yet.
+    daemon_awake_until: Option<Instant>,
+    /// The daemon had other requests in progress when it sent the last response
+    /// ([`ResponseHeader::busy`]).
+    daemon_busy: bool,
+}
+
+/// How a [`Client`] reaches its daemon.
+enum Transport {
+    /// iceoryx2 shared memory on this host.
+    Ipc(Box<IpcPorts>),
+    /// zenoh, to a daemon on any host.
+    #[cfg(feature = "zenoh")]
+    Zenoh(Box<zenoh::ZenohLink>),
+}
+
+/// A client's iceoryx2 ports.
+struct IpcPorts {
     // ports first: they drop before the services and the node
     port: IoxClient<ClientIpc, [Observation], RequestHeader, [u32], ResponseHeader>,
     wake: Notifier<ClientIpc>,
@@ -317,14 +349,6 @@ pub struct Client {
     _wake_service: iceoryx2::service::port_factory::event::PortFactory<ClientIpc>,
     _response_events: iceoryx2::service::port_factory::event::PortFactory<ClientIpc>,
     node: Node<ClientIpc>,
-    next_id: u64,
-    stale: u64,
-    /// Until when the daemon is expected to poll for requests (from its last response's
-    /// [`ResponseHeader::awake_us`]); `None`: not known yet.
-    daemon_awake_until: Option<Instant>,
-    /// The daemon had other requests in progress when it sent the last response
-    /// ([`ResponseHeader::busy`]).
-    daemon_busy: bool,
 }
 
 impl fmt::Debug for Client {
@@ -406,16 +430,7 @@ impl Client {
             .map_err(|e| ipc_err("cannot create the response listener", e))?;
         let id = listener.id().value();
         let listener_id = [id as u64, (id >> 64) as u64];
-        // request ids start at a per-process value so that two clients of one service
-        // (or a restarted client) do not reuse each other's ids
-        let seed = std::time::SystemTime::now()
-            .duration_since(std::time::UNIX_EPOCH)
-            .map(|d| d.as_nanos() as u64)
-            .unwrap_or(0)
-            ^ ((std::process::id() as u64) << 40);
-        Ok(Client {
-            service_name: service.to_string(),
-            options,
+        let ports = IpcPorts {
             port,
             wake,
             listener,
@@ -424,11 +439,81 @@ impl Client {
             _wake_service: wake_service,
             _response_events: response_events,
             node,
+        };
+        Ok(Self::with_transport(
+            service,
+            options,
+            Transport::Ipc(Box::new(ports)),
+        ))
+    }
+
+    /// Connect over zenoh to the daemon serving `service` (e.g. `cliff/predict`) that
+    /// listens on `endpoint` (e.g. `tcp/192.0.2.7:7447`), with default options. Fails
+    /// with [`Error::NoDaemon`] when nothing answers there. Needs the feature `zenoh`.
+    ///
+    /// ```no_run
+    /// # use cliff_client::{Client, Request, Observation};
+    /// let mut client = Client::connect_zenoh("tcp/127.0.0.1:7447", "cliff/predict")?;
+    /// let mut request = Request::new("demo", &Default::default())?;
+    /// request.add_agent([Observation::with_velocity(0.0, -10.0, 0.5, 1.2, 0.0)]);
+    /// let prediction = client.predict(&request)?; // as over iceoryx2
+    /// # Ok::<(), cliff_client::Error>(())
+    /// ```
+    #[cfg(feature = "zenoh")]
+    pub fn connect_zenoh(endpoint: &str, service: &str) -> Result<Client, Error> {
+        Self::connect_zenoh_with(
+            &[endpoint.to_string()],
+            None,
+            service,
+            ClientOptions::default(),
+        )
+    }
+
+    /// Connect over zenoh with explicit endpoints, an optional zenoh configuration file
+    /// (TLS certificates, ...; see [`zenoh::client_config`]) and options (only the
+    /// deadline applies: a zenoh client always blocks on its reply). Needs the feature
+    /// `zenoh`.
+    #[cfg(feature = "zenoh")]
+    pub fn connect_zenoh_with(
+        endpoints: &[String],
+        config_file: Option<&std::path::Path>,
+        service: &str,
+        options: ClientOptions,
+    ) -> Result<Client, Error> {
+        let link = zenoh::ZenohLink::open(endpoints, config_file, service)?;
+        Ok(Self::with_transport(
+            service,
+            options,
+            Transport::Zenoh(Box::new(link)),
+        ))
+    }
+
+    fn with_transport(service: &str, options: ClientOptions, transport: Transport) -> Client {
+        // request ids start at a per-process value so that two clients of one service
+        // (or a restarted client) do not reuse each other's ids
+        let seed = std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .map(|d| d.as_nanos() as u64)
+            .unwrap_or(0)
+            ^ ((std::process::id() as u64) << 40);
+        Client {
+            service_name: service.to_string(),
+            options,
+            transport,
             next_id: seed | 1,
             stale: 0,
             daemon_awake_until: None,
             daemon_busy: false,
-        })
+        }
+    }
+
+    /// `"iceoryx2"` or `"zenoh"`: how this client reaches its daemon.
+    pub fn transport(&self) -> &'static str {
+        match self.transport {
+            Transport::Ipc(_) => "iceoryx2",
+            #[cfg(feature = "zenoh")]
+            Transport::Zenoh(_) => "zenoh",
+        }
     }
 
     /// The options in force.
@@ -507,11 +592,20 @@ impl Client {
         rows: &[Observation],
         deadline: Duration,
     ) -> Result<Prediction<'_>, Error> {
-        let response = self.round_trip(header, rows, deadline)?;
-        Ok(Prediction {
-            response,
-            _client: PhantomData,
-        })
+        let body = match self.round_trip(header, rows, deadline)? {
+            Answer::Shm(response) => Body::Shm(response, PhantomData),
+            Answer::Buffered(h) => Body::Buffered(h, self.buffered_payload()),
+        };
+        Ok(Prediction { body })
+    }
+
+    /// The payload of the last response read into the client's own buffer (zenoh).
+    pub(crate) fn buffered_payload(&self) -> &[u32] {
+        match &self.transport {
+            Transport::Ipc(_) => &[],
+            #[cfg(feature = "zenoh")]
+            Transport::Zenoh(link) => &link.payload,
+        }
     }
 
     /// Round trip without the borrow: the response stays valid on its own (used by the
@@ -521,13 +615,31 @@ impl Client {
         header: &RequestHeader,
         rows: &[Observation],
         deadline: Duration,
-    ) -> Result<RawResponse, Error> {
+    ) -> Result<Answer, Error> {
         let start = Instant::now();
         let id = self.next_id;
         self.next_id = self.next_id.wrapping_add(1);
+        // a hybrid wait spins only when the daemon is awake and was not busy with others
+        let spin_pays = self.daemon_awake_at(start) && !self.daemon_busy;
+        // one arm without the zenoh feature
+        #[allow(clippy::infallible_destructuring_match)]
+        let ipc = match &mut self.transport {
+            Transport::Ipc(ipc) => ipc,
+            #[cfg(feature = "zenoh")]
+            Transport::Zenoh(link) => {
+                let h = RequestHeader {
+                    request_id: id,
+                    listener_id: [0, 0],
+                    ..*header
+                };
+                let rh = link.round_trip(&h, rows, deadline)?;
+                check_header(&rh, &link.payload, id)?;
+                return Ok(Answer::Buffered(rh));
+            }
+        };
         let notify = self.options.wait != WaitMode::Spin;
 
-        let request = self
+        let request = ipc
             .port
             .loan_slice_uninit(rows.len())
             .map_err(|e| ipc_err("cannot loan request memory", e))?;
@@ -535,7 +647,7 @@ impl Client {
         let h = request.user_header_mut();
         *h = *header;
         h.request_id = id;
-        h.listener_id = if notify { self.listener_id } else { [0, 0] };
+        h.listener_id = if notify { ipc.listener_id } else { [0, 0] };
         let pending = request
             .send()
             .map_err(|e| ipc_err("cannot send request", e))?;
@@ -545,7 +657,7 @@ impl Client {
             });
         }
         // wakes a sleeping daemon; costs a system call only when it sleeps
-        let _ = self.wake.notify();
+        let _ = ipc.wake.notify();
 
         let gone = || Error::DaemonGone {
             service: self.service_name.clone(),
@@ -553,9 +665,7 @@ impl Client {
         let mut next_liveness = start + LIVENESS_INTERVAL;
         let spin_until = match self.options.wait {
             WaitMode::Spin => None,
-            WaitMode::Hybrid if self.daemon_awake_at(start) && !self.daemon_busy => {
-                Some(start + self.options.spin)
-            }
+            WaitMode::Hybrid if spin_pays => Some(start + self.options.spin),
             WaitMode::Hybrid | WaitMode::Block => Some(start),
         };
         // the daemon's promise to stay awake, with a margin for the time the response
@@ -574,7 +684,7 @@ impl Client {
                     }
                     self.daemon_awake_until = awake_until(response.user_header());
                     self.daemon_busy = response.user_header().busy() > 0;
-                    return check_response(response, id);
+                    return check_response(response, id).map(Answer::Shm);
                 }
                 Ok(None) => {}
                 Err(e) => return Err(ipc_err("cannot receive", e)),
@@ -596,7 +706,7 @@ impl Client {
                     Ok(Some(r)) if r.user_header().request_id == id => {
                         self.daemon_awake_until = awake_until(r.user_header());
                         self.daemon_busy = r.user_header().busy() > 0;
-                        check_response(r, id)
+                        check_response(r, id).map(Answer::Shm)
                     }
                     _ => Err(gone()),
                 };
@@ -607,14 +717,14 @@ impl Client {
                 return Err(Error::Deadline { deadline });
             }
             if now >= next_liveness {
-                self.node.try_cleanup_dead_nodes();
+                ipc.node.try_cleanup_dead_nodes();
                 next_liveness = now + LIVENESS_INTERVAL;
                 continue;
             }
             match spin_until {
                 Some(t) if now >= t => {
                     let wait = (end - now).min(next_liveness - now);
-                    match self.listener.timed_wait(|_| {}, wait) {
+                    match ipc.listener.timed_wait(|_| {}, wait) {
                         Ok(_) | Err(ListenerWaitError::InterruptSignal) => {}
                         Err(e) => return Err(ipc_err("cannot wait for the response event", e)),
                     }
@@ -628,8 +738,23 @@ impl Client {
 /// An owned response (no lifetime); see [`Prediction`].
 pub(crate) type RawResponse = Response<ClientIpc, [u32], ResponseHeader>;
 
+/// A response as a round trip returns it.
+pub(crate) enum Answer {
+    /// In shared memory (iceoryx2).
+    Shm(RawResponse),
+    /// The header; the payload is in the client's buffer ([`Client::buffered_payload`]).
+    #[cfg_attr(not(feature = "zenoh"), allow(dead_code))]
+    Buffered(ResponseHeader),
+}
+
 fn check_response(r: RawResponse, id: u64) -> Result<RawResponse, Error> {
-    let h = *r.user_header();
+    check_header(r.user_header(), r.payload(), id)?;
+    Ok(r)
+}
+
+/// Check a response against the request id and its own shape; a rejection becomes
+/// [`Error::Rejected`].
+fn check_header(h: &ResponseHeader, payload: &[u32], id: u64) -> Result<(), Error> {
     if h.request_id != id {
         return Err(Error::Protocol(format!(
             "response for request {} instead of {id}",
@@ -642,10 +767,10 @@ fn check_response(r: RawResponse, id: u64) -> Result<RawResponse, Error> {
             h.version
         )));
     }
-    if let Some(rej) = Rejection::from_header(&h) {
+    if let Some(rej) = Rejection::from_header(h) {
         return Err(Error::Rejected(rej));
     }
-    let words = r.payload().len();
+    let words = payload.len();
     if words != h.payload_words() {
         return Err(Error::Protocol(format!(
             "payload holds {words} words, shape {}x{}x{} needs {}",
@@ -656,24 +781,29 @@ fn check_response(r: RawResponse, id: u64) -> Result<RawResponse, Error> {
         )));
     }
     let points = (h.agents as usize) * (h.k as usize) * (h.steps as usize);
-    if let Some(bad) = r.payload()[points * 2..].iter().find(|&&l| l > h.steps) {
+    if let Some(bad) = payload[points * 2..].iter().find(|&&l| l > h.steps) {
         return Err(Error::Protocol(format!(
             "a sample length {bad} exceeds {} steps",
             h.steps
         )));
     }
-    Ok(r)
+    Ok(())
 }
 
-/// A batch of predicted trajectories, read in place from shared memory. It borrows the
-/// client: drop it before the next call.
+/// A batch of predicted trajectories, read in place from shared memory (or, over zenoh,
+/// from the client's own buffer). It borrows the client: drop it before the next call.
 ///
 /// Layout as [`cliff::predict::TrajectoryBatch`]: `agents x k` samples of `steps`
 /// positions each, every sample with its valid length (a CLiFF-LHMP sample ends where
 /// the map has no data).
 pub struct Prediction<'c> {
-    response: RawResponse,
-    _client: PhantomData<&'c mut Client>,
+    body: Body<'c>,
+}
+
+/// Where a [`Prediction`]'s data lives.
+enum Body<'c> {
+    Shm(RawResponse, PhantomData<&'c mut Client>),
+    Buffered(ResponseHeader, &'c [u32]),
 }
 
 impl fmt::Debug for Prediction<'_> {
@@ -696,7 +826,17 @@ pub(crate) fn split_payload<'a>(
 
 impl<'c> Prediction<'c> {
     fn header(&self) -> &ResponseHeader {
-        self.response.user_header()
+        match &self.body {
+            Body::Shm(r, _) => r.user_header(),
+            Body::Buffered(h, _) => h,
+        }
+    }
+
+    fn payload(&self) -> &[u32] {
+        match &self.body {
+            Body::Shm(r, _) => r.payload(),
+            Body::Buffered(_, p) => p,
+        }
     }
 
     /// The request id this answers (checked against the request by the client).
@@ -712,19 +852,19 @@ impl<'c> Prediction<'c> {
 
     /// All positions, sample-major (NaN past each sample's valid length).
     pub fn positions(&self) -> &[[f32; 2]] {
-        split_payload(self.header(), self.response.payload()).0
+        split_payload(self.header(), self.payload()).0
     }
 
     /// The valid length of every sample (`agents x k`).
     pub fn lens(&self) -> &[u32] {
-        split_payload(self.header(), self.response.payload()).1
+        split_payload(self.header(), self.payload()).1
     }
 
     /// The predictions for agent `a` (panics when `a` is out of range).
     pub fn agent(&self, a: usize) -> AgentPrediction<'_> {
         let (agents, k, steps) = self.shape();
         assert!(a < agents, "agent {a} of {agents}");
-        let (pos, lens) = split_payload(self.header(), self.response.payload());
+        let (pos, lens) = split_payload(self.header(), self.payload());
         AgentPrediction {
             index: a,
             steps,

@@ -485,7 +485,7 @@ pub struct Rejection {
 }
 
 impl Rejection {
-    fn new(status: Status, field: Field) -> Self {
+    pub(crate) fn new(status: Status, field: Field) -> Self {
         Rejection {
             status,
             agent: None,
@@ -495,7 +495,7 @@ impl Rejection {
         }
     }
 
-    fn at(status: Status, field: Field, agent: u32, row: u32) -> Self {
+    pub(crate) fn at(status: Status, field: Field, agent: u32, row: u32) -> Self {
         Rejection {
             status,
             agent: Some(agent),
@@ -505,7 +505,7 @@ impl Rejection {
         }
     }
 
-    fn over(status: Status, field: Field, limit: u32) -> Self {
+    pub(crate) fn over(status: Status, field: Field, limit: u32) -> Self {
         Rejection {
             status,
             agent: None,

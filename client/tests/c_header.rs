@@ -30,6 +30,8 @@ fn c_header_is_up_to_date() {
         "cliff_predict",
         "cliff_request_add_agent",
         "cliff_client_reload_maps",
+        "cliff_client_connect_zenoh",
+        "CLIFF_CLIENT_ZENOH",
         "CLIFF_ERR_DEADLINE",
     ] {
         assert!(text.contains(f), "{f} missing from the header");

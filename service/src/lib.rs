@@ -10,7 +10,9 @@
 //!   and reloads on their own thread;
 //! * the scheduler (`scheduler.rs`): accepted requests cut into chunks of agents that
 //!   take turns, predicted by the workers straight into the responses;
-//! * the serving loop (`serve.rs`): iceoryx2 ports, validation, responses, housekeeping.
+//! * the serving loop (`serve.rs`): iceoryx2 ports, validation, responses, housekeeping;
+//! * with the feature `zenoh`, the [`zenoh`] frontend: remote requests over a zenoh
+//!   queryable, validated and scheduled like local ones.
 //!
 //! ## What one request can cost
 //!
@@ -34,6 +36,8 @@ mod registry;
 mod scheduler;
 mod serve;
 mod settings;
+#[cfg(feature = "zenoh")]
+pub mod zenoh;
 
 pub use serve::{Daemon, Stats};
 pub use settings::{

@@ -120,6 +120,20 @@ struct Args {
     /// Write the process id to this file once ready.
     #[arg(long)]
     pid_file: Option<PathBuf>,
+
+    /// Also serve remote clients over zenoh, listening on this endpoint (repeatable;
+    /// e.g. tcp/127.0.0.1:7447, tls/0.0.0.0:7447). The queryable's key expression is the
+    /// service name. Nothing listens unless asked; multicast and gossip scouting are off.
+    #[cfg(feature = "zenoh")]
+    #[arg(long = "zenoh", value_name = "ENDPOINT")]
+    zenoh: Vec<String>,
+
+    /// A full zenoh configuration file (JSON5: TLS, access control, scouting, connect to
+    /// a router). What it does not name keeps cliffd's safe values (peer mode, scouting
+    /// off, no listener); --zenoh endpoints replace its listen endpoints.
+    #[cfg(feature = "zenoh")]
+    #[arg(long, value_name = "FILE")]
+    zenoh_config: Option<PathBuf>,
 }
 
 fn main() -> ExitCode {
@@ -152,7 +166,7 @@ fn main() -> ExitCode {
     }
 
     let settings = Settings {
-        service: args.service,
+        service: args.service.clone(),
         prefix: args.prefix.filter(|p| !p.is_empty()),
         maps: args.maps,
         limits: Limits {
@@ -179,13 +193,33 @@ fn main() -> ExitCode {
             return ExitCode::FAILURE;
         }
     };
+    #[cfg(feature = "zenoh")]
+    let mut remote_line = String::new();
+    #[cfg(feature = "zenoh")]
+    if !args.zenoh.is_empty() || args.zenoh_config.is_some() {
+        let zs = cliff_service::zenoh::ZenohSettings::new(
+            &args.service,
+            args.zenoh.clone(),
+            args.zenoh_config.clone(),
+        );
+        match daemon.serve_zenoh(&zs) {
+            Ok(d) => remote_line = format!("; remote clients: {d}"),
+            Err(e) => {
+                tracing::error!("{e}");
+                eprintln!("error: {e}");
+                return ExitCode::FAILURE;
+            }
+        }
+    }
+    #[cfg(not(feature = "zenoh"))]
+    let remote_line = "";
     if let Some(p) = &args.pid_file
         && let Err(e) = std::fs::write(p, format!("{}\n", std::process::id()))
     {
         eprintln!("error: cannot write the pid file {}: {e}", p.display());
         return ExitCode::FAILURE;
     }
-    println!("{}", daemon.ready_line());
+    println!("{}{remote_line}", daemon.ready_line());
     let _ = std::io::stdout().flush();
     daemon.run(&stop, &reload);
     let s = daemon.stats();

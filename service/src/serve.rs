@@ -31,17 +31,36 @@ type Port = Server<ipc::Service, [Observation], RequestHeader, [u32], ResponseHe
 type Active = ActiveRequest<ipc::Service, [Observation], RequestHeader, [u32], ResponseHeader>;
 type Response = iceoryx2::response_mut::ResponseMut<ipc::Service, [u32], ResponseHeader>;
 
-/// A request being predicted straight into its loaned shared-memory response.
-struct IpcOutput {
-    request: Active,
-    response: Response,
+/// Where a request's prediction goes: straight into its loaned shared-memory response,
+/// or (a remote request over zenoh) into a buffer encoded into the reply.
+enum Out {
+    Ipc {
+        request: Active,
+        response: Response,
+    },
+    #[cfg(feature = "zenoh")]
+    Remote {
+        reply: crate::zenoh::PendingReply,
+        words: Vec<u32>,
+    },
 }
 
-impl Output for IpcOutput {
+impl Output for Out {
     #[inline]
     fn words(&mut self) -> &mut [u32] {
-        self.response.payload_mut()
+        match self {
+            Out::Ipc { response, .. } => response.payload_mut(),
+            #[cfg(feature = "zenoh")]
+            Out::Remote { words, .. } => words,
+        }
     }
+}
+
+/// The zenoh frontend and the payload buffers of remote requests (reused).
+#[cfg(feature = "zenoh")]
+struct Remote {
+    frontend: crate::zenoh::ZenohFrontend,
+    buffers: Vec<Vec<u32>>,
 }
 
 /// Counters of a running daemon.
@@ -104,7 +123,7 @@ impl Wakeups {
 pub struct Daemon {
     settings: Settings,
     registry: Registry,
-    scheduler: Scheduler<IpcOutput>,
+    scheduler: Scheduler<Out>,
     // ports before services before node (drop order)
     server: Port,
     wake: Listener<ipc::Service>,
@@ -116,6 +135,9 @@ pub struct Daemon {
     /// Reload requests and the reload generation that answers each.
     reload_waiters: Vec<(u64, Active)>,
     stats: Stats,
+    /// Remote clients over zenoh, once [`Daemon::serve_zenoh`] started them.
+    #[cfg(feature = "zenoh")]
+    remote: Option<Remote>,
 }
 
 fn ipc(what: &str, e: impl std::fmt::Debug) -> StartError {
@@ -224,8 +246,36 @@ impl Daemon {
             node,
             reload_waiters: Vec::new(),
             stats: Stats::default(),
+            #[cfg(feature = "zenoh")]
+            remote: None,
             settings,
         })
+    }
+
+    /// Also serve remote clients over zenoh: the same validation, limits and scheduler
+    /// as local clients (their requests take turns in the same rounds). zenoh runs on
+    /// its own threads and wakes the serving loop through the iceoryx2 request event;
+    /// returns what it serves on, for the ready line.
+    #[cfg(feature = "zenoh")]
+    pub fn serve_zenoh(
+        &mut self,
+        settings: &crate::zenoh::ZenohSettings,
+    ) -> Result<String, StartError> {
+        let waker = crate::zenoh::RequestWaker::open(
+            &self.settings.service,
+            self.settings.prefix.as_deref(),
+        )?;
+        let frontend =
+            crate::zenoh::ZenohFrontend::start(settings, &self.settings.limits, move || {
+                waker.wake()
+            })?;
+        let description = frontend.description().to_string();
+        info!(zid = %frontend.zid(), "serving remote clients on {description}");
+        self.remote = Some(Remote {
+            frontend,
+            buffers: Vec::new(),
+        });
+        Ok(description)
     }
 
     /// The line printed once the daemon serves (contains `ready`).
@@ -358,12 +408,64 @@ impl Daemon {
                 }
             }
         }
+        #[cfg(feature = "zenoh")]
+        {
+            work |= self.accept_remote();
+        }
         if self.scheduler.busy() {
             self.scheduler.run_round();
             work = true;
         }
         self.send_finished();
         work
+    }
+
+    /// Take the remote requests waiting now (as many as there are free slots): reject
+    /// or hand them to the scheduler with a reused buffer; true when there was one.
+    #[cfg(feature = "zenoh")]
+    fn accept_remote(&mut self) -> bool {
+        let Some(remote) = self.remote.as_mut() else {
+            return false;
+        };
+        let mut any = false;
+        while let Some(slot) = self.scheduler.free_slot() {
+            let Some(req) = remote.frontend.try_next() else {
+                break;
+            };
+            any = true;
+            let h = *req.header();
+            slot.header = h;
+            let decoded = decode(
+                &self.registry,
+                &self.settings.limits,
+                &h,
+                req.rows(),
+                &mut slot.scratch,
+            );
+            let (map, params) = match decoded {
+                Ok(d) => d,
+                Err(rej) => {
+                    debug!(request_id = h.request_id, "remote request rejected: {rej}");
+                    self.stats.rejected += 1;
+                    if !req.reject(&rej) {
+                        self.stats.failed += 1;
+                    }
+                    continue;
+                }
+            };
+            let agents = slot.scratch.states().len();
+            let mut words = remote.buffers.pop().unwrap_or_default();
+            words.clear();
+            words.resize(protocol::payload_words(agents, params.k, params.steps()), 0);
+            if params.method == Method::Cliff {
+                self.registry.want_table(map, params.radius);
+            }
+            let map = Arc::clone(&self.registry.entries()[map].map);
+            let reply = req.into_pending();
+            self.scheduler
+                .admit(map, &params, Out::Remote { reply, words });
+        }
+        any
     }
 
     /// Validate a request and either answer it (rejection, reload) or hand it to the
@@ -410,7 +512,7 @@ impl Daemon {
         self.scheduler.admit(
             map,
             &params,
-            IpcOutput {
+            Out::Ipc {
                 request: req,
                 response,
             },
@@ -433,32 +535,52 @@ impl Daemon {
             stats,
             wakeups,
             settings,
+            #[cfg(feature = "zenoh")]
+            remote,
             ..
         } = self;
-        scheduler.take_finished(|f: Finished<'_, IpcOutput>| {
+        scheduler.take_finished(|f: Finished<'_, Out>| {
             let h = f.header;
             let mut rh = response_header(h, settings.idle_spin);
-            let IpcOutput {
-                request,
-                mut response,
-            } = f.output;
-            let sent = if f.ok {
+            if f.ok {
                 rh.agents = f.agents as u32;
                 rh.k = f.params.k as u32;
                 rh.steps = f.params.steps() as u32;
                 rh.limit = f.others.min(u32::MAX as usize) as u32; // ResponseHeader::busy
-                *response.user_header_mut() = rh;
                 stats.served += 1;
-                response.send().map_err(|e| format!("{e:?}"))
             } else {
-                drop(response);
                 stats.rejected += 1;
                 internal().write_to(&mut rh);
-                send_empty(&request, rh)
-            };
-            count_failure(stats, h, sent);
-            wakeups.notify(h);
-            // dropping the active request ends it
+            }
+            match f.output {
+                Out::Ipc {
+                    request,
+                    mut response,
+                } => {
+                    let sent = if f.ok {
+                        *response.user_header_mut() = rh;
+                        response.send().map_err(|e| format!("{e:?}"))
+                    } else {
+                        drop(response);
+                        send_empty(&request, rh)
+                    };
+                    count_failure(stats, h, sent);
+                    wakeups.notify(h);
+                    // dropping the active request ends it
+                }
+                #[cfg(feature = "zenoh")]
+                Out::Remote { reply, words } => {
+                    // remote clients do not see the daemon's wake state
+                    rh.awake_us = 0;
+                    let payload: &[u32] = if f.ok { &words } else { &[] };
+                    if !reply.reply(&rh, payload) {
+                        stats.failed += 1;
+                    }
+                    if let Some(r) = remote.as_mut() {
+                        r.buffers.push(words);
+                    }
+                }
+            }
         });
     }
 

@@ -185,6 +185,9 @@ pub enum StartError {
     /// Another daemon already serves the service.
     #[error("another cliffd already serves '{0}' (stop it, or use another --service or --prefix)")]
     AlreadyServed(String),
+    /// zenoh refused (endpoint in use, bad configuration).
+    #[error("zenoh: {0}")]
+    Zenoh(String),
 }
 
 #[cfg(test)]

@@ -124,6 +124,41 @@ struct Args {
     /// With --keep-going: stop when no request has succeeded for this long (s).
     #[arg(long, default_value_t = 30.0)]
     give_up_s: f64,
+
+    /// Reach the daemon over zenoh at this endpoint (e.g. tcp/127.0.0.1:7447) instead of
+    /// iceoryx2 shared memory; repeatable. --wait and --spin-us do not apply (a zenoh
+    /// client blocks on its reply).
+    #[cfg(feature = "zenoh")]
+    #[arg(long = "zenoh", value_name = "ENDPOINT")]
+    zenoh: Vec<String>,
+
+    /// A zenoh configuration file for the client (TLS certificates, ...); implies zenoh.
+    #[cfg(feature = "zenoh")]
+    #[arg(long, value_name = "FILE")]
+    zenoh_config: Option<PathBuf>,
+}
+
+impl Args {
+    /// Whether the daemon is reached over zenoh.
+    fn remote(&self) -> bool {
+        #[cfg(feature = "zenoh")]
+        return !self.zenoh.is_empty() || self.zenoh_config.is_some();
+        #[cfg(not(feature = "zenoh"))]
+        false
+    }
+
+    fn connect(&self, options: ClientOptions) -> Result<Client, Error> {
+        #[cfg(feature = "zenoh")]
+        if self.remote() {
+            return Client::connect_zenoh_with(
+                &self.zenoh,
+                self.zenoh_config.as_deref(),
+                &self.service,
+                options,
+            );
+        }
+        Client::connect_with(&self.service, options)
+    }
 }
 
 /// Distinct requests cycled through by every client.
@@ -221,7 +256,7 @@ fn run_client(
         deadline: Duration::from_millis(a.deadline_ms),
         prefix: a.prefix.clone().filter(|p| !p.is_empty()),
     };
-    let client = Client::connect_with(&a.service, options);
+    let client = a.connect(options);
     let mut client = match client {
         Ok(c) => c,
         Err(e) => {
@@ -466,6 +501,7 @@ fn run(a: Args) -> Result<ExitCode, String> {
     if a.json {
         let v = serde_json::json!({
             "service": a.service,
+            "transport": if a.remote() { "zenoh" } else { "iceoryx2" },
             "clients": a.clients,
             "requests_per_client": a.requests,
             "completed": done,
@@ -502,11 +538,12 @@ fn run(a: Args) -> Result<ExitCode, String> {
         println!("{v}");
     } else {
         println!(
-            "cliff-bench: {} client(s) x {} requests (+{} warm-up each) to cliffd '{}'{}",
+            "cliff-bench: {} client(s) x {} requests (+{} warm-up each) to cliffd '{}' over {}{}",
             a.clients,
             a.requests,
             a.warmup,
             a.service,
+            if a.remote() { "zenoh" } else { "iceoryx2" },
             match a.rate {
                 Some(r) => format!(", each client paced at {r} requests/s"),
                 None => ", back to back".to_string(),

@@ -260,6 +260,11 @@ pub struct ChildClient {
 
 impl ChildClient {
     pub fn spawn(name: &str, spec: &str) -> ChildClient {
+        Self::spawn_with(name, "CLIFF_TEST_CHILD", spec)
+    }
+
+    /// As [`spawn`](Self::spawn), with the spec in the environment variable `var`.
+    pub fn spawn_with(name: &str, var: &str, spec: &str) -> ChildClient {
         let mut child = Command::new(std::env::current_exe().expect("test exe"))
             .args([
                 name,
@@ -268,7 +273,7 @@ impl ChildClient {
                 "--nocapture",
                 "--test-threads=1",
             ])
-            .env("CLIFF_TEST_CHILD", spec)
+            .env(var, spec)
             .stdout(Stdio::piped())
             .stderr(Stdio::inherit())
             .spawn()

@@ -1,0 +1,249 @@
+//! Reaching a `cliffd` on another host over zenoh (feature `zenoh`).
+//!
+//! A [`Client`](crate::Client) made with [`Client::connect_zenoh`](crate::Client::connect_zenoh)
+//! sends the same [`Request`](crate::Request) as a zenoh query on the daemon's key
+//! expression ([`key_expr_for`]) in the byte encoding of [`crate::wire`], and reads the
+//! reply into a buffer of its own that the [`Prediction`](crate::Prediction) borrows.
+//! The zenoh session is in client mode (it never listens), connects only to the given
+//! endpoints, with multicast and gossip scouting off and a reconnection retry of
+//! 100-500 ms, unless a configuration file says otherwise.
+//!
+//! Failures map to the same [`Error`]s as locally: [`Error::NoDaemon`] when the daemon
+//! cannot be reached or does not answer on the key (zenoh reports no daemon, a daemon
+//! that died mid-request and an access-control denial alike: no reply), [`Error::Deadline`],
+//! [`Error::Rejected`]. [`Error::DaemonGone`] is never returned over zenoh.
+
+use std::path::Path;
+use std::time::{Duration, Instant};
+
+use zenoh::Wait;
+use zenoh::bytes::ZBytes;
+use zenoh::key_expr::KeyExpr;
+use zenoh::qos::CongestionControl;
+use zenoh::query::ConsolidationMode;
+
+use crate::protocol::{Observation, RequestHeader, ResponseHeader};
+use crate::{Error, wire};
+
+/// The key expression a daemon serving the service `service` answers on: the service
+/// name itself (`cliff/predict`).
+pub fn key_expr_for(service: &str) -> String {
+    service.to_string()
+}
+
+/// The zenoh configuration of a client: the file (if any), then `mode` client and, for
+/// what the file does not name, `scouting.multicast` and `scouting.gossip` off and
+/// `connect.retry` 100-500 ms. `endpoints`, when given, replace `connect.endpoints`.
+/// (A key counts as named when the file's text has it followed by a colon:
+/// [`config_names`].)
+pub fn client_config(
+    endpoints: &[String],
+    config_file: Option<&Path>,
+) -> Result<zenoh::Config, String> {
+    let (mut config, text) = match config_file {
+        Some(p) => {
+            let text = std::fs::read_to_string(p)
+                .map_err(|e| format!("zenoh config {}: {e}", p.display()))?;
+            let c = zenoh::Config::from_json5(&text)
+                .map_err(|e| format!("zenoh config {}: {e}", p.display()))?;
+            (c, text)
+        }
+        None => (zenoh::Config::default(), String::new()),
+    };
+    let named = |key: &str| config_names(&text, key);
+    let mut set = |key: &str, value: &str| {
+        config
+            .insert_json5(key, value)
+            .map_err(|e| format!("zenoh config {key} = {value}: {e}"))
+    };
+    set("mode", r#""client""#)?;
+    if !named("multicast") {
+        set("scouting/multicast/enabled", "false")?;
+    }
+    if !named("gossip") {
+        set("scouting/gossip/enabled", "false")?;
+    }
+    if !named("retry") {
+        set("connect/retry", "{period_init_ms: 100, period_max_ms: 500}")?;
+    }
+    if !endpoints.is_empty() {
+        let list = endpoints
+            .iter()
+            .map(|e| format!("{e:?}"))
+            .collect::<Vec<_>>()
+            .join(",");
+        set("connect/endpoints", &format!("[{list}]"))?;
+    }
+    Ok(config)
+}
+
+/// Whether JSON5 configuration text names the key `key` (as `key:`, `"key":` or
+/// `'key':`, not as part of a longer name such as `listen_certificate`): the sections a
+/// configuration file sets itself, which cliff's safe defaults leave alone.
+pub fn config_names(text: &str, key: &str) -> bool {
+    let b = text.as_bytes();
+    let ident = |c: u8| c.is_ascii_alphanumeric() || c == b'_';
+    text.match_indices(key).any(|(i, _)| {
+        if i > 0 && ident(b[i - 1]) {
+            return false;
+        }
+        let mut j = i + key.len();
+        if j < b.len() && (b[j] == b'"' || b[j] == b'\'') {
+            j += 1;
+        }
+        while j < b.len() && b[j].is_ascii_whitespace() {
+            j += 1;
+        }
+        j < b.len() && b[j] == b':'
+    })
+}
+
+/// A client's zenoh session and its response buffer.
+pub(crate) struct ZenohLink {
+    session: zenoh::Session,
+    key: KeyExpr<'static>,
+    /// Where the daemon is, for messages (`cliff/predict via zenoh tcp/...`).
+    target: String,
+    /// The last response's payload words (what a [`crate::Prediction`] borrows).
+    pub(crate) payload: Vec<u32>,
+}
+
+impl ZenohLink {
+    pub(crate) fn open(
+        endpoints: &[String],
+        config_file: Option<&Path>,
+        service: &str,
+    ) -> Result<ZenohLink, Error> {
+        let target = if endpoints.is_empty() {
+            format!("{service} via zenoh")
+        } else {
+            format!("{service} via zenoh {}", endpoints.join(", "))
+        };
+        if endpoints.is_empty() && config_file.is_none() {
+            return Err(Error::InvalidRequest(
+                "a zenoh client needs an endpoint (e.g. tcp/127.0.0.1:7447) or a configuration file".into(),
+            ));
+        }
+        let key = KeyExpr::try_from(key_expr_for(service)).map_err(|e| {
+            Error::InvalidRequest(format!(
+                "service name '{service}' is not a zenoh key expression: {e}"
+            ))
+        })?;
+        let config = client_config(endpoints, config_file).map_err(Error::InvalidRequest)?;
+        let session = zenoh::open(config).wait().map_err(|e| {
+            // a client-mode session fails at once when no endpoint answers
+            let text = e.to_string();
+            if text.contains("Unable to connect") || text.contains("timeout") {
+                Error::NoDaemon {
+                    service: target.clone(),
+                }
+            } else {
+                Error::Zenoh(format!("cannot open a session: {text}"))
+            }
+        })?;
+        Ok(ZenohLink {
+            session,
+            key,
+            target,
+            payload: Vec::new(),
+        })
+    }
+
+    /// Send one request (its id already set) and read the reply into `self.payload`.
+    pub(crate) fn round_trip(
+        &mut self,
+        header: &RequestHeader,
+        rows: &[Observation],
+        deadline: Duration,
+    ) -> Result<ResponseHeader, Error> {
+        let start = Instant::now();
+        // zenoh takes the buffer over (no copy), so each request has its own
+        let mut bytes = Vec::new();
+        wire::encode_request(header, rows, &mut bytes);
+        let replies = self
+            .session
+            .get(&self.key)
+            .payload(ZBytes::from(bytes))
+            .consolidation(ConsolidationMode::None)
+            .congestion_control(CongestionControl::Drop)
+            .timeout(deadline)
+            .wait()
+            .map_err(|e| Error::Zenoh(format!("cannot send the query: {e}")))?;
+        // zenoh ends the query at the deadline; the margin only guards against a stuck
+        // channel
+        let reply = match replies.recv_timeout(deadline + Duration::from_millis(100)) {
+            Ok(Some(reply)) => reply,
+            Ok(None) => return Err(Error::Deadline { deadline }),
+            Err(_) if start.elapsed() >= deadline => return Err(Error::Deadline { deadline }),
+            // the query ended without a reply: nobody answers on the key
+            Err(_) => {
+                return Err(Error::NoDaemon {
+                    service: self.target.clone(),
+                });
+            }
+        };
+        match reply.into_result() {
+            Ok(sample) => {
+                let bytes = sample.payload().to_bytes();
+                wire::decode_response(&bytes, usize::MAX, &mut self.payload)
+                    .map_err(|e| Error::Protocol(e.to_string()))
+            }
+            Err(err) => {
+                let text = err.payload().to_bytes();
+                let text = String::from_utf8_lossy(&text);
+                if text.eq_ignore_ascii_case("timeout") {
+                    Err(Error::Deadline { deadline })
+                } else {
+                    Err(Error::Zenoh(format!("error reply: {text}")))
+                }
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn config_keys_are_named_only_as_keys() {
+        let text = r#"{ transport: { link: { tls: { listen_certificate: "a.pem" } } },
+                        scouting: { "multicast" : { enabled: true } }, 'retry':{} }"#;
+        assert!(config_names(text, "multicast"));
+        assert!(config_names(text, "retry"));
+        assert!(!config_names(text, "listen"));
+        assert!(!config_names(text, "gossip"));
+        assert!(!config_names("mode_x: 1, model: 2", "mode"));
+        assert!(config_names("mode:\"peer\"", "mode"));
+    }
+
+    #[test]
+    fn the_client_config_is_client_mode_without_scouting() {
+        let c = client_config(&["tcp/127.0.0.1:7447".into()], None).unwrap();
+        assert_eq!(c.get_json("mode").unwrap(), r#""client""#);
+        assert_eq!(c.get_json("scouting/multicast/enabled").unwrap(), "false");
+        assert_eq!(c.get_json("scouting/gossip/enabled").unwrap(), "false");
+        assert!(
+            c.get_json("connect/endpoints")
+                .unwrap()
+                .contains("tcp/127.0.0.1:7447")
+        );
+        // a file that turns multicast scouting on keeps it, and still gets client mode
+        let dir = std::env::temp_dir().join(format!("cliff-zenoh-cfg-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let f = dir.join("client.json5");
+        std::fs::write(
+            &f,
+            r#"{ mode: "peer", scouting: { multicast: { enabled: true } } }"#,
+        )
+        .unwrap();
+        let c = client_config(&[], Some(&f)).unwrap();
+        assert_eq!(c.get_json("mode").unwrap(), r#""client""#);
+        assert_eq!(c.get_json("scouting/multicast/enabled").unwrap(), "true");
+        assert_eq!(c.get_json("scouting/gossip/enabled").unwrap(), "false");
+        std::fs::write(&f, "{ mode: ").unwrap();
+        let e = client_config(&[], Some(&f)).unwrap_err();
+        assert!(e.contains("client.json5"), "{e}");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+}

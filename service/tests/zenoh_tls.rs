@@ -1,0 +1,171 @@
+//! The README's LAN set-up, run on loopback: cliffd with the configuration of
+//! docs/zenoh/cliffd-lan.json5 (mutual TLS, an access-control list by certificate
+//! common name) and robots with docs/zenoh/robot.json5. Certificates are made with
+//! `openssl` for the test.
+#![cfg(feature = "zenoh")]
+
+mod common;
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::time::Duration;
+
+use cliff::map::CliffMap;
+use cliff::predict::Method;
+use cliff_client::{Client, ClientOptions, Error};
+use common::*;
+
+const PORT_TLS: u16 = 27_471;
+
+fn openssl(dir: &Path, args: &[&str]) {
+    let out = Command::new("openssl")
+        .args(args)
+        .current_dir(dir)
+        .output()
+        .expect("run openssl (install it: apt-get install openssl)");
+    assert!(
+        out.status.success(),
+        "openssl {args:?}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
+/// A CA, a certificate for cliffd (127.0.0.1) and one per client common name.
+fn certificates(dir: &Path, clients: &[&str]) {
+    let ec = [
+        "-newkey",
+        "ec",
+        "-pkeyopt",
+        "ec_paramgen_curve:prime256v1",
+        "-nodes",
+    ];
+    let mut ca = vec!["req", "-x509"];
+    ca.extend(ec);
+    ca.extend([
+        "-keyout",
+        "ca.key",
+        "-out",
+        "ca.pem",
+        "-days",
+        "2",
+        "-subj",
+        "/CN=cliff-test-ca",
+        "-addext",
+        "basicConstraints=critical,CA:TRUE",
+        "-addext",
+        "keyUsage=critical,keyCertSign,cRLSign",
+    ]);
+    openssl(dir, &ca);
+    let sign = |name: &str, ext: &str| {
+        std::fs::write(dir.join(format!("{name}.ext")), ext).unwrap();
+        let (key, csr, pem, extf, subj) = (
+            format!("{name}.key"),
+            format!("{name}.csr"),
+            format!("{name}.pem"),
+            format!("{name}.ext"),
+            format!("/CN={name}"),
+        );
+        let mut req = vec!["req"];
+        req.extend(ec);
+        req.extend(["-keyout", &key, "-out", &csr, "-subj", &subj]);
+        openssl(dir, &req);
+        openssl(
+            dir,
+            &[
+                "x509",
+                "-req",
+                "-in",
+                &csr,
+                "-CA",
+                "ca.pem",
+                "-CAkey",
+                "ca.key",
+                "-CAcreateserial",
+                "-out",
+                &pem,
+                "-days",
+                "2",
+                "-extfile",
+                &extf,
+            ],
+        );
+    };
+    sign(
+        "cliffd",
+        "subjectAltName=IP:127.0.0.1,DNS:localhost\nextendedKeyUsage=serverAuth\n",
+    );
+    for c in clients {
+        sign(c, "extendedKeyUsage=clientAuth\n");
+    }
+}
+
+/// A file of docs/zenoh/ with the certificate directory and the service name of the
+/// test put in.
+fn docs_config(file: &str, dir: &Path, cert_as: &str) -> PathBuf {
+    let src = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../docs/zenoh")
+        .join(file);
+    let text = std::fs::read_to_string(&src).expect("docs/zenoh config");
+    let text = text
+        .replace(
+            "/etc/cliff/robot-1",
+            &format!("{}/{cert_as}", dir.display()),
+        )
+        .replace("/etc/cliff/", &format!("{}/", dir.display()))
+        .replace("\"cliff/predict\"", &format!("{SERVICE:?}"));
+    let out = dir.join(format!("{cert_as}-{file}"));
+    std::fs::write(&out, text).unwrap();
+    out
+}
+
+#[test]
+fn the_readme_lan_setup_serves_listed_robots_and_nobody_else() {
+    let ns = Namespace::new("ztls");
+    let dir = std::env::temp_dir().join(format!("cliff-zenoh-tls-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    certificates(&dir, &["robot-1", "intruder"]);
+    let daemon_cfg = docs_config("cliffd-lan.json5", &dir, "cliffd");
+    let ep = format!("tls/127.0.0.1:{PORT_TLS}");
+    let cfg = daemon_cfg.to_str().unwrap();
+    let _daemon = Daemon::start(&ns, &["--zenoh", &ep, "--zenoh-config", cfg]);
+
+    let options = ClientOptions {
+        deadline: Duration::from_secs(5),
+        ..ClientOptions::default()
+    };
+    let map = CliffMap::demo();
+    let req = demo_request(11, 3, 20, Method::Cliff);
+    let want = local_bits(&map, &req).1;
+
+    // robot-1 is on the list
+    let robot = docs_config("robot.json5", &dir, "robot-1");
+    let mut c = Client::connect_zenoh_with(
+        std::slice::from_ref(&ep),
+        Some(&robot),
+        SERVICE,
+        options.clone(),
+    )
+    .expect("robot-1 connects over mutual TLS");
+    let p = c.predict(&req).expect("robot-1 is served");
+    assert_eq!(bits(p.positions(), p.lens()), want);
+
+    // a certificate from the same CA but not on the list: connected, never answered
+    let intruder = docs_config("robot.json5", &dir, "intruder");
+    let mut c = Client::connect_zenoh_with(
+        std::slice::from_ref(&ep),
+        Some(&intruder),
+        SERVICE,
+        options.clone(),
+    )
+    .expect("the intruder's TLS handshake succeeds");
+    let e = c.predict(&req).unwrap_err();
+    assert!(matches!(e, Error::NoDaemon { .. }), "{e}");
+
+    // no client certificate, or plain TCP: no session at all
+    let e = Client::connect_zenoh_with(std::slice::from_ref(&ep), None, SERVICE, options.clone())
+        .unwrap_err();
+    assert!(matches!(e, Error::NoDaemon { .. }), "{e}");
+    let e = Client::connect_zenoh(&format!("tcp/127.0.0.1:{PORT_TLS}"), SERVICE).unwrap_err();
+    assert!(matches!(e, Error::NoDaemon { .. }), "{e}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
