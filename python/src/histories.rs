@@ -3,10 +3,10 @@
 use cliff::predict::{HeadingRule, Method, Params};
 use cliff_client::protocol::MAX_HISTORY;
 use cliff_client::{Observation, Request};
-use numpy::{PyReadonlyArray2, PyUntypedArrayMethods};
+use numpy::{PyReadonlyArray2, PyUntypedArray, PyUntypedArrayMethods};
 use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
-use pyo3::types::{PyAnyMethods, PySequence, PyString};
+use pyo3::types::{PyAnyMethods, PyList, PySequence, PyString, PyTuple};
 
 /// Rows of one history that count: the most recent [`MAX_HISTORY`]. Older rows get a
 /// velocity weight of exactly 0 (`exp(-t^2 / 4.5)` underflows for `t > 57` rows at
@@ -66,8 +66,17 @@ pub fn add_histories(
     }
     // A list or tuple of 2-D arrays, or a single 3-D array (agents, rows, columns):
     // anything with a length and integer indexing (NumPy arrays are no `Sequence`).
-    let is_array = histories.hasattr("ndim")? && histories.hasattr("shape")?;
-    if !(histories.cast::<PySequence>().is_ok() || is_array) {
+    if let Ok(a) = histories.cast::<PyUntypedArray>() {
+        if a.ndim() != 3 {
+            return Err(PyValueError::new_err(format!(
+                "histories: a single array must be 3-D (people, rows, columns), got {} dimension(s); pass a list of 2-D arrays",
+                a.ndim()
+            )));
+        }
+    } else if !(histories.is_instance_of::<PyList>()
+        || histories.is_instance_of::<PyTuple>()
+        || histories.cast::<PySequence>().is_ok())
+    {
         return Err(PyTypeError::new_err(format!(
             "histories: expected a sequence of 2-D arrays (one per person), got {}",
             histories
@@ -76,14 +85,6 @@ pub fn add_histories(
                 .map(|n| n.to_string())
                 .unwrap_or_else(|_| "?".into())
         )));
-    }
-    if is_array {
-        let ndim: usize = histories.getattr("ndim")?.extract()?;
-        if ndim != 3 {
-            return Err(PyValueError::new_err(format!(
-                "histories: a single array must be 3-D (people, rows, columns), got {ndim} dimension(s); pass a list of 2-D arrays"
-            )));
-        }
     }
     let n = histories.len()?;
     if n == 0 {
@@ -137,7 +138,8 @@ pub struct PredictArgs<'a> {
     pub horizon: f64,
     pub beta: f64,
     pub radius: f64,
-    pub seed: u64,
+    /// Any Python int; checked to fit in 64 bits unsigned.
+    pub seed: i128,
     pub method: &'a str,
     pub heading: &'a str,
 }
@@ -159,6 +161,12 @@ impl PredictArgs<'_> {
                 self.k
             )));
         }
+        let seed = u64::try_from(self.seed).map_err(|_| {
+            PyValueError::new_err(format!(
+                "seed: {} is not between 0 and 2**64 - 1",
+                self.seed
+            ))
+        })?;
         let params = Params {
             method,
             k: self.k as usize,
@@ -166,7 +174,7 @@ impl PredictArgs<'_> {
             horizon: self.horizon,
             beta: self.beta,
             radius: self.radius,
-            seed: self.seed,
+            seed,
             heading,
         };
         params.validate().map_err(|e| match e {

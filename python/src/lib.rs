@@ -65,7 +65,7 @@ fn predict(
     horizon: f64,
     beta: f64,
     radius: f64,
-    seed: u64,
+    seed: i128,
     method: &str,
     heading: &str,
 ) -> PyResult<prediction::Prediction> {

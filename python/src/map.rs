@@ -281,7 +281,7 @@ impl Map {
         horizon: f64,
         beta: f64,
         radius: f64,
-        seed: u64,
+        seed: i128,
         method: &str,
         heading: &str,
     ) -> PyResult<Prediction> {

@@ -76,6 +76,8 @@ def test_seed_decides_the_samples():
     a = cliff_lhmp.predict(m, [WALK], seed=5)
     b = cliff_lhmp.predict(m, [WALK], seed=5)
     c = cliff_lhmp.predict(m, [WALK], seed=6)
+    top = cliff_lhmp.predict(m, [WALK], seed=2**64 - 1)
+    assert np.isfinite(top.positions[0, 0, 0]).all()
     np.testing.assert_array_equal(a.positions, b.positions)
     assert not np.array_equal(a.positions, c.positions, equal_nan=True)
 
@@ -156,6 +158,8 @@ def test_many_people_in_one_call(thor1_map, people):
         ([WALK], {"heading": "sideways"}, ValueError, r"heading: unknown heading rule"),
         ([WALK], {"k": 0}, ValueError, r"k: 0 samples"),
         ([WALK], {"k": -3}, ValueError, r"k: -3 samples"),
+        ([WALK], {"seed": -1}, ValueError, r"seed: -1 is not between 0 and 2\*\*64 - 1"),
+        ([WALK], {"seed": 2**64}, ValueError, r"seed: 18446744073709551616 is not between"),
         ([WALK], {"dt": 0.0}, ValueError, r"dt: 0 is not a positive number"),
         ([WALK], {"dt": float("nan")}, ValueError, r"dt: NaN is not a positive number"),
         ([WALK], {"horizon": 0.1}, ValueError, r"horizon: 0.1 s is less than one step"),
