@@ -25,5 +25,5 @@ mod report;
 
 pub use report::{
     EvalConfig, EvalReport, PersonRow, SUMMARY_HEADER, SummaryRow, evaluate, per_person_csv,
-    person_seed, summary_csv, summary_table, write_reports,
+    person_seed, summary_csv, summary_table, table_horizons, write_reports,
 };

@@ -8,7 +8,9 @@ use anyhow::{Context, Result, bail};
 use clap::Args;
 use cliff::eval::dataset::{Format, Track, read_many};
 use cliff::eval::protocol::{Case, Protocol, Settings, prepare};
-use cliff::eval::{EvalConfig, evaluate, person_seed, summary_table, write_reports};
+use cliff::eval::{
+    EvalConfig, evaluate, person_seed, summary_table, table_horizons, write_reports,
+};
 use cliff::map::CliffMap;
 use cliff::predict::{HeadingRule, Method, Params, TrajectoryBatch, predict};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
@@ -196,16 +198,7 @@ pub fn run_eval(a: EvalArgs) -> Result<()> {
         cfg.seeds,
         t0.elapsed().as_secs_f64()
     );
-    let mut horizons: Vec<f64> = [2.0, 4.0, 6.0, 8.0, 10.0, 12.0]
-        .into_iter()
-        .filter(|h| *h <= cfg.settings.horizon + 1e-9)
-        .collect();
-    if cfg.settings.horizon > 12.0 + 1e-9 {
-        horizons = (1..=(cfg.settings.horizon / 10.0) as usize)
-            .map(|i| i as f64 * 10.0)
-            .collect();
-        horizons.insert(0, 5.0);
-    }
+    let horizons = table_horizons(cfg.settings.horizon);
     print!("{}", summary_table(&report.summary, &horizons));
     if let Some(dir) = &a.out {
         write_reports(&report, dir)
