@@ -1,7 +1,9 @@
 //! `cliff_lhmp.evaluate`: the evaluation of `cliff eval`, returning tables as lists of dicts.
 
 use cliff::eval::protocol::{Protocol, Settings};
-use cliff::eval::{EvalConfig, EvalReport, evaluate as rust_evaluate, summary_table};
+use cliff::eval::{
+    EvalConfig, EvalReport, evaluate as rust_evaluate, summary_table, table_horizons,
+};
 use cliff::predict::{HeadingRule, Method, Params};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
@@ -51,7 +53,7 @@ impl Evaluation {
     /// 12 s up to the horizon, or 5, 10, 20, ... s beyond 12 s).
     #[pyo3(signature = (horizons = None))]
     fn table(&self, horizons: Option<Vec<f64>>) -> String {
-        let hs = horizons.unwrap_or_else(|| default_horizons(self.horizon));
+        let hs = horizons.unwrap_or_else(|| table_horizons(self.horizon));
         summary_table(&self.report.summary, &hs)
     }
 
@@ -63,22 +65,6 @@ impl Evaluation {
             self.report.summary.len(),
             self.report.per_person.len()
         )
-    }
-}
-
-/// The horizons `cliff eval` prints.
-fn default_horizons(horizon: f64) -> Vec<f64> {
-    if horizon > 12.0 + 1e-9 {
-        let mut h: Vec<f64> = (1..=(horizon / 10.0) as usize)
-            .map(|i| i as f64 * 10.0)
-            .collect();
-        h.insert(0, 5.0);
-        h
-    } else {
-        [2.0, 4.0, 6.0, 8.0, 10.0, 12.0]
-            .into_iter()
-            .filter(|h| *h <= horizon + 1e-9)
-            .collect()
     }
 }
 
