@@ -3,8 +3,8 @@
 published CLiFF-LHMP loop, on the THÖR1 benchmark person (the first THÖR1 person that
 passes the reference filter; k 20, 30 steps of 0.4 s, radius 0.7071, beta 1), in one run.
 
-    python python/benches/bench_predict.py            # from the repository root
-    python python/benches/bench_predict.py --no-rust  # skip `cargo bench`
+    .venv/bin/python benches/python_predict.py            # from the repository root
+    .venv/bin/python benches/python_predict.py --no-rust  # skip `cargo bench`
 
 Figures are medians over repeated batches of calls:
 
@@ -34,7 +34,7 @@ import numpy as np
 
 import cliff_lhmp
 
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[1]
 DATA = ROOT.parent / "shared" / "data"
 sys.path.insert(0, str(ROOT / "python" / "tests"))
 from thor import read_people, start_row  # noqa: E402
