@@ -82,8 +82,6 @@ impl Client {
         })
     }
 
-    /// predict(map, histories, *, k=20, dt=0.4, horizon=12.0, beta=1.0, radius=0.7071, seed=0, method="cliff", heading="circular-mean") -> Prediction
-    ///
     /// Ask the daemon for ``k`` samples per person with the map it serves as ``map``.
     /// Arguments and result are those of ``cliff_lhmp.predict``; the same map,
     /// histories and seed give the same numbers. Raises ``Rejected`` (a ValueError,
@@ -91,7 +89,7 @@ impl Client {
     /// map, limits), ``NoDaemon``/``DaemonGone`` (ConnectionError) and
     /// ``DeadlinePassed`` (TimeoutError).
     #[pyo3(signature = (map, histories, *, k = 20, dt = 0.4, horizon = 12.0, beta = 1.0,
-        radius = std::f64::consts::FRAC_1_SQRT_2, seed = 0, method = "cliff", heading = "circular-mean"))]
+        radius = 0.7071067811865476, seed = 0, method = "cliff", heading = "circular-mean"))]
     #[allow(clippy::too_many_arguments)]
     fn predict(
         &self,

@@ -68,8 +68,6 @@ impl Evaluation {
     }
 }
 
-/// evaluate(map, tracks, *, format="thor", protocol="seconds", obs=3.2, dt=0.4, horizon=12.0, radius=0.7071, beta=1.0, k=20, seeds=1, methods=("cliff", "cvm"), sigma=1.5, heading="circular-mean") -> Evaluation
-///
 /// Evaluate prediction methods on recorded trajectories, exactly as ``cliff eval``
 /// with the same options (same people, seeds and numbers). Each person is observed
 /// for ``obs`` seconds and predicted ``k`` times per seed up to ``horizon`` seconds
@@ -83,7 +81,7 @@ impl Evaluation {
 ///     format: "thor" or "atc".
 ///     protocol: "reference" (the published code's row-based rules, for parity) or
 ///         "seconds" (the same rules stated in time).
-///     methods: list of "cliff" and/or "cvm".
+///     methods: list of "cliff" and/or "cvm" (None: both).
 ///
 /// Example (the README's THÖR1 parity run):
 ///     >>> r = cliff_lhmp.evaluate(cliff_lhmp.Map.load("../shared/data/thor1/cliffmap.csv"),
@@ -91,8 +89,8 @@ impl Evaluation {
 ///     >>> print(r.table())
 #[pyfunction]
 #[pyo3(signature = (map, tracks, *, format = "thor", protocol = "seconds", obs = 3.2, dt = 0.4,
-    horizon = 12.0, radius = std::f64::consts::FRAC_1_SQRT_2, beta = 1.0, k = 20, seeds = 1,
-    methods = vec!["cliff".to_string(), "cvm".to_string()], sigma = cliff::motion::DEFAULT_SIGMA,
+    horizon = 12.0, radius = 0.7071067811865476, beta = 1.0, k = 20, seeds = 1,
+    methods = None, sigma = 1.5,
     heading = "circular-mean"))]
 #[allow(clippy::too_many_arguments)]
 pub fn evaluate(
@@ -108,7 +106,7 @@ pub fn evaluate(
     beta: f64,
     k: i64,
     seeds: i64,
-    methods: Vec<String>,
+    methods: Option<Vec<String>>,
     sigma: f64,
     heading: &str,
 ) -> PyResult<Evaluation> {
@@ -119,6 +117,8 @@ pub fn evaluate(
     let heading: HeadingRule = heading
         .parse()
         .map_err(|e: String| PyValueError::new_err(format!("heading: {e}")))?;
+    let methods =
+        methods.unwrap_or_else(|| vec![Method::Cliff.name().into(), Method::Cvm.name().into()]);
     if methods.is_empty() {
         return Err(PyValueError::new_err("methods: names no method"));
     }

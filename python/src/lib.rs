@@ -17,8 +17,6 @@ mod prediction;
 use histories::PredictArgs;
 use map::Map;
 
-/// predict(map, histories, *, k=20, dt=0.4, horizon=12.0, beta=1.0, radius=0.7071, seed=0, method="cliff", heading="circular-mean") -> Prediction
-///
 /// Predict ``k`` future trajectories of every person, in-process (no daemon).
 ///
 /// Args:
@@ -54,7 +52,7 @@ use map::Map;
 ///     ((1, 5, 10, 2), (1, 5))
 #[pyfunction]
 #[pyo3(signature = (map, histories, *, k = 20, dt = 0.4, horizon = 12.0, beta = 1.0,
-    radius = std::f64::consts::FRAC_1_SQRT_2, seed = 0, method = "cliff", heading = "circular-mean"))]
+    radius = 0.7071067811865476, seed = 0, method = "cliff", heading = "circular-mean"))]
 #[allow(clippy::too_many_arguments)]
 fn predict(
     py: Python<'_>,

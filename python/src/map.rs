@@ -266,11 +266,9 @@ impl Map {
         Ok(d)
     }
 
-    /// predict(histories, *, k=20, dt=0.4, horizon=12.0, beta=1.0, radius=0.7071, seed=0, method="cliff", heading="circular-mean") -> Prediction
-    ///
     /// The same as ``cliff_lhmp.predict(self, histories, ...)``.
     #[pyo3(signature = (histories, *, k = 20, dt = 0.4, horizon = 12.0, beta = 1.0,
-        radius = std::f64::consts::FRAC_1_SQRT_2, seed = 0, method = "cliff", heading = "circular-mean"))]
+        radius = 0.7071067811865476, seed = 0, method = "cliff", heading = "circular-mean"))]
     #[allow(clippy::too_many_arguments)]
     fn predict(
         &self,

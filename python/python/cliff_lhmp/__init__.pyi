@@ -164,7 +164,7 @@ def evaluate(
     beta: float = 1.0,
     k: int = 20,
     seeds: int = 1,
-    methods: Sequence[str] = ("cliff", "cvm"),
+    methods: Optional[Sequence[str]] = None,
     sigma: float = 1.5,
     heading: str = "circular-mean",
 ) -> Evaluation: ...
