@@ -156,45 +156,50 @@ pub fn predict_local(
         max_steps: u32::try_from(steps).unwrap_or(u32::MAX),
         max_history: MAX_HISTORY,
     };
-    let points = agents
+    // Rust-owned buffers, handed to NumPy without a copy afterwards; a batch too large
+    // for memory is a MemoryError, not an abort.
+    let too_large = || {
+        PyMemoryError::new_err(format!(
+            "{agents} people x {k} samples x {steps} steps is too large to allocate"
+        ))
+    };
+    let floats = agents
         .checked_mul(k)
         .and_then(|v| v.checked_mul(steps))
-        .filter(|&v| v <= isize::MAX as usize / 8)
-        .ok_or_else(|| {
-            PyMemoryError::new_err(format!(
-                "{agents} people x {k} samples x {steps} steps is too large"
-            ))
-        })?;
-    // Fresh arrays that no Python code has seen yet: the predictor fills every element
-    // (points past a sample's end are set to NaN).
-    let positions = PyArray4::<f32>::zeros(py, [agents, k, steps, 2], false);
-    let mut lens = vec![0u32; agents * k];
-    {
-        let mut pos_rw = positions.readwrite();
-        let pos_flat = pos_rw
-            .as_slice_mut()
-            .map_err(|e| PyValueError::new_err(e.to_string()))?;
-        let lens_flat = lens.as_mut_slice();
-        debug_assert_eq!(pos_flat.len(), points * 2);
-        let header = *request.header();
-        let rows = request.rows();
-        let outcome = py.detach(move || {
-            let mut scratch = DecodeScratch::new(&limits);
-            let params = decode_request(&header, rows, &limits, &mut scratch)?;
-            let out = BatchMut {
-                positions: bytemuck_points(pos_flat),
-                lens: lens_flat,
-            };
-            predict_into(&map, scratch.states(), &params, out).map_err(|_| Rejection {
-                status: Status::Internal,
-                agent: None,
-                row: None,
-                field: Field::None,
-                limit: 0,
-            })
-        });
-        outcome.map_err(|r| local_rejection(&r))?;
-    }
+        .and_then(|v| v.checked_mul(2))
+        .ok_or_else(too_large)?;
+    let mut positions: Vec<f32> = Vec::new();
+    positions
+        .try_reserve_exact(floats)
+        .map_err(|_| too_large())?;
+    positions.resize(floats, 0.0);
+    let mut lens: Vec<u32> = Vec::new();
+    lens.try_reserve_exact(agents * k)
+        .map_err(|_| too_large())?;
+    lens.resize(agents * k, 0);
+    let header = *request.header();
+    let rows = request.rows();
+    let (pos_flat, lens_flat) = (positions.as_mut_slice(), lens.as_mut_slice());
+    py.detach(move || {
+        let mut scratch = DecodeScratch::new(&limits);
+        let params = decode_request(&header, rows, &limits, &mut scratch)?;
+        let out = BatchMut {
+            positions: as_points(pos_flat),
+            lens: lens_flat,
+        };
+        // the predictor fills every point (NaN past a sample's end)
+        predict_into(&map, scratch.states(), &params, out).map_err(|_| Rejection {
+            status: Status::Internal,
+            agent: None,
+            row: None,
+            field: Field::None,
+            limit: 0,
+        })
+    })
+    .map_err(|r| local_rejection(&r))?;
+    let positions = Array4::from_shape_vec((agents, k, steps, 2), positions)
+        .map_err(|e| PyValueError::new_err(format!("internal shape error: {e}")))?
+        .into_pyarray(py);
     let lengths = Array2::from_shape_vec((agents, k), lens.iter().map(|&v| v as i64).collect())
         .map_err(|e| PyValueError::new_err(format!("internal shape error: {e}")))?
         .into_pyarray(py);
@@ -207,7 +212,7 @@ pub fn predict_local(
 }
 
 /// A flat `[x0, y0, x1, y1, ...]` slice as points.
-fn bytemuck_points(flat: &mut [f32]) -> &mut [[f32; 2]] {
+fn as_points(flat: &mut [f32]) -> &mut [[f32; 2]] {
     let (points, rest) = flat.as_chunks_mut::<2>();
     debug_assert!(rest.is_empty());
     points

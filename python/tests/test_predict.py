@@ -172,6 +172,17 @@ def test_bad_input_names_the_argument(histories, kwargs, exc, match):
         cliff_lhmp.predict(cliff_lhmp.Map.demo(), histories, **kwargs)
 
 
+def test_a_batch_too_large_for_memory_is_a_memory_error():
+    with pytest.raises(MemoryError, match="4000000000 samples x 30 steps is too large"):
+        cliff_lhmp.predict(cliff_lhmp.Map.demo(), [WALK] * 1000, k=4_000_000_000)
+
+
+def test_positions_are_handed_over_without_a_copy():
+    p = cliff_lhmp.predict(cliff_lhmp.Map.demo(), [WALK], k=2)
+    assert p.positions.base is not None and p.positions.flags.c_contiguous
+    assert p.positions is p.positions  # the same array on every access
+
+
 def test_map_must_be_a_map():
     with pytest.raises(TypeError):
         cliff_lhmp.predict("demo", [WALK])  # type: ignore[arg-type]
