@@ -28,5 +28,5 @@ pub mod windows;
 
 pub use report::{
     EvalConfig, EvalReport, PersonRow, SUMMARY_HEADER, SummaryRow, evaluate, per_person_csv,
-    person_seed, summary_csv, summary_table, write_reports,
+    person_seed, summary_csv, summary_table, table_horizons, write_reports,
 };

@@ -428,3 +428,33 @@ pub fn summary_table(rows: &[SummaryRow], horizons: &[f64]) -> String {
     }
     s
 }
+
+/// The horizons `cliff eval` prints for a run up to `horizon` seconds at steps of `dt`:
+/// 2, 4, ..., 12 s (those within the horizon), or 5 s and every 10 s beyond a horizon of
+/// 12 s; and the last predicted step when it is not among them (4.8 s for THÖR-MAGNI's
+/// 12 rows at 0.4 s).
+///
+/// ```
+/// assert_eq!(cliff::eval::table_horizons(8.0, 0.4), vec![2.0, 4.0, 6.0, 8.0]);
+/// assert_eq!(cliff::eval::table_horizons(30.0, 1.0), vec![5.0, 10.0, 20.0, 30.0]);
+/// assert_eq!(cliff::eval::table_horizons(4.8, 0.4), vec![2.0, 4.0, 4.8]);
+/// ```
+pub fn table_horizons(horizon: f64, dt: f64) -> Vec<f64> {
+    let mut h: Vec<f64> = if horizon > 12.0 + 1e-9 {
+        let mut h: Vec<f64> = (1..=(horizon / 10.0) as usize)
+            .map(|i| i as f64 * 10.0)
+            .collect();
+        h.insert(0, 5.0);
+        h
+    } else {
+        [2.0, 4.0, 6.0, 8.0, 10.0, 12.0]
+            .into_iter()
+            .filter(|h| *h <= horizon + 1e-9)
+            .collect()
+    };
+    let last = crate::predict::steps_for(horizon, dt) as f64 * dt;
+    if last > 0.0 && h.last().is_none_or(|x| *x < last - 1e-6) {
+        h.push(last);
+    }
+    h
+}

@@ -9,11 +9,11 @@ use clap::Args;
 use cliff::eval::columns::{Columns, read_many_as};
 use cliff::eval::dataset::{Format, Track, keep_time_range};
 use cliff::eval::protocol::{Case, Protocol, Settings, prepare};
-use cliff::eval::{EvalConfig, evaluate, person_seed, summary_table, write_reports};
-use cliff::map::CliffMap;
-use cliff::predict::{
-    HeadingRule, Method, Options, Params, TrajectoryBatch, predict_with, steps_for,
+use cliff::eval::{
+    EvalConfig, evaluate, person_seed, summary_table, table_horizons, write_reports,
 };
+use cliff::map::CliffMap;
+use cliff::predict::{HeadingRule, Method, Options, Params, TrajectoryBatch, predict_with};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 
 use crate::map_cmd::load_map;
@@ -280,21 +280,7 @@ pub fn run_eval(a: EvalArgs) -> Result<()> {
         cfg.seeds,
         t0.elapsed().as_secs_f64()
     );
-    let mut horizons: Vec<f64> = [2.0, 4.0, 6.0, 8.0, 10.0, 12.0]
-        .into_iter()
-        .filter(|h| *h <= cfg.settings.horizon + 1e-9)
-        .collect();
-    if cfg.settings.horizon > 12.0 + 1e-9 {
-        horizons = (1..=(cfg.settings.horizon / 10.0) as usize)
-            .map(|i| i as f64 * 10.0)
-            .collect();
-        horizons.insert(0, 5.0);
-    }
-    // the longest horizon too when it is not on the grid (4.8 s for THÖR-MAGNI's 12 rows)
-    let last = steps_for(cfg.settings.horizon, cfg.settings.dt) as f64 * cfg.settings.dt;
-    if last > 0.0 && horizons.last().is_none_or(|h| *h < last - 1e-6) {
-        horizons.push(last);
-    }
+    let horizons = table_horizons(cfg.settings.horizon, cfg.settings.dt);
     print!("{}", summary_table(&report.summary, &horizons));
     if let Some(dir) = &a.out {
         write_reports(&report, dir)

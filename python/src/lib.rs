@@ -1,0 +1,96 @@
+//! Python bindings of cliff: the extension module `cliff_lhmp._native`.
+//!
+//! A thin layer over the `cliff` library and the `cliff-client` crate: arguments are
+//! checked and copied into Rust values, the work runs with the GIL released, and the
+//! results come back as NumPy arrays. The Python package `cliff_lhmp`
+//! (`python/python/cliff_lhmp`) re-exports everything and holds the exception classes.
+
+use pyo3::prelude::*;
+
+mod client;
+mod errors;
+mod evaluation;
+mod histories;
+mod map;
+mod prediction;
+
+use histories::PredictArgs;
+use map::Map;
+
+/// Predict ``k`` future trajectories of every person, in-process (no daemon).
+///
+/// Args:
+///     map: the Map to predict with.
+///     histories: one 2-D array per person, oldest row first, of rows ``(t, x, y)``
+///         (at least 2 rows: the velocity comes from the positions) or
+///         ``(t, x, y, speed, heading)`` (at least 1 row: the tracker's speed in m/s
+///         and heading in rad). Times in s, positions in m. Any sequence of arrays (or
+///         nested lists) works, and so does one 3-D array (people, rows, columns).
+///         Only the last 64 rows are used (older rows have no weight).
+///     k: samples per person.
+///     dt: time step (s) between predicted positions.
+///     horizon: how far ahead (s); ``floor(horizon / dt)`` steps.
+///     beta: how strongly the heading turns towards a direction sampled from the map.
+///     radius: sampling radius (m): map locations strictly closer are used.
+///     seed: seed of the random generator; the same inputs and seed give the same
+///         numbers (also through ``Client.predict``).
+///     method: "cliff" (CLiFF-LHMP) or "cvm" (constant velocity).
+///     heading: "circular-mean" (the published code) or "paper" (the paper's formula).
+///
+/// Returns:
+///     Prediction with ``positions`` (float32, shape (people, k, steps, 2), NaN after
+///     each sample's end) and ``lengths`` (int64, shape (people, k)).
+///
+/// Each person starts at its last row. Thousands of people in one call are fine;
+/// the GIL is released while Rust predicts.
+///
+/// Example:
+///     >>> import numpy as np, cliff_lhmp
+///     >>> walk = np.array([[0.0, -10.0, 0.5], [0.4, -9.5, 0.5], [0.8, -9.0, 0.5]])
+///     >>> p = cliff_lhmp.predict(cliff_lhmp.Map.demo(), [walk], k=5, horizon=4.0)
+///     >>> p.positions.shape, p.lengths.shape
+///     ((1, 5, 10, 2), (1, 5))
+#[pyfunction]
+#[pyo3(signature = (map, histories, *, k = 20, dt = 0.4, horizon = 12.0, beta = 1.0,
+    radius = 0.7071067811865476, seed = 0, method = "cliff", heading = "circular-mean"))]
+#[allow(clippy::too_many_arguments)]
+fn predict(
+    py: Python<'_>,
+    map: &Bound<'_, Map>,
+    histories: &Bound<'_, PyAny>,
+    k: i64,
+    dt: f64,
+    horizon: f64,
+    beta: f64,
+    radius: f64,
+    seed: i128,
+    method: &str,
+    heading: &str,
+) -> PyResult<prediction::Prediction> {
+    let args = PredictArgs {
+        k,
+        dt,
+        horizon,
+        beta,
+        radius,
+        seed,
+        method,
+        heading,
+    };
+    prediction::predict_local(py, map.get().inner.clone(), histories, &args)
+}
+
+/// The extension module; `cliff_lhmp` re-exports its contents.
+#[pymodule(name = "_native")]
+mod native {
+    #[pymodule_export]
+    use super::client::Client;
+    #[pymodule_export]
+    use super::evaluation::{Evaluation, evaluate};
+    #[pymodule_export]
+    use super::map::{Map, OnlineMap, build_map};
+    #[pymodule_export]
+    use super::predict;
+    #[pymodule_export]
+    use super::prediction::Prediction;
+}

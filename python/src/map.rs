@@ -1,0 +1,468 @@
+//! `cliff_lhmp.Map`, `build_map`, scoring and online updates.
+
+use std::path::PathBuf;
+use std::sync::{Arc, Mutex};
+
+use cliff::eval::dataset::{Format, Track, read_many};
+use cliff::map::build::observations_from_tracks;
+use cliff::map::update::UpdateReport;
+use cliff::map::{BuildParams, CliffMap, OnlineMap as RustOnlineMap, ScoreParams, UpdateParams};
+use numpy::ndarray::{Array1, Array2};
+use numpy::{IntoPyArray, PyArray1, PyArray2};
+use pyo3::exceptions::{PyTypeError, PyValueError};
+use pyo3::prelude::*;
+use pyo3::types::{PyDict, PyString};
+
+use crate::errors::{io_err, map_err};
+use crate::histories::PredictArgs;
+use crate::prediction::{Prediction, predict_local};
+
+/// A CLiFF-map: for each location, a mixture of the velocities people moved with there.
+///
+/// Make one with ``Map.load(path)`` (the published CSV format or a ``.cliff``
+/// snapshot), ``Map.demo()`` (the built-in synthetic hall) or ``build_map(...)``.
+/// A map is immutable and safe to share between threads.
+///
+/// Example:
+///     >>> import cliff_lhmp
+///     >>> m = cliff_lhmp.Map.demo()
+///     >>> m.info()["locations"]
+///     315
+#[pyclass(module = "cliff_lhmp", frozen)]
+pub struct Map {
+    pub inner: Arc<CliffMap>,
+}
+
+/// Which format a `format=` argument names.
+pub fn parse_format(format: &str) -> PyResult<Format> {
+    format
+        .parse()
+        .map_err(|e: String| PyValueError::new_err(format!("format: {e}")))
+}
+
+/// The `tracks` argument: one path or a sequence of paths, read with `format`.
+pub fn read_tracks_arg(tracks: &Bound<'_, PyAny>, format: Format) -> PyResult<Vec<Track>> {
+    let paths: Vec<PathBuf> = if tracks.is_instance_of::<PyString>()
+        || tracks.hasattr("__fspath__")?
+    {
+        vec![tracks.extract()?]
+    } else {
+        tracks.extract().map_err(|_| {
+            PyTypeError::new_err(
+                "tracks: expected a path (str or os.PathLike) or a list of paths to trajectory files",
+            )
+        })?
+    };
+    if paths.is_empty() {
+        return Err(PyValueError::new_err("tracks: names no file"));
+    }
+    for p in &paths {
+        if !p.exists() {
+            return Err(pyo3::exceptions::PyFileNotFoundError::new_err(format!(
+                "tracks: {} does not exist",
+                p.display()
+            )));
+        }
+    }
+    read_many(&paths, format).map_err(|e| match &e {
+        cliff::eval::dataset::DatasetError::Io { file, source } => io_err("tracks", file, source),
+        _ => PyValueError::new_err(format!("tracks: {e}")),
+    })
+}
+
+fn update_report<'py>(py: Python<'py>, r: &UpdateReport) -> PyResult<Bound<'py, PyDict>> {
+    let d = PyDict::new(py);
+    d.set_item("observations", r.observations)?;
+    d.set_item("updated", r.updated)?;
+    d.set_item("created", r.created)?;
+    d.set_item("added", r.added)?;
+    d.set_item("merged", r.merged)?;
+    d.set_item("pruned", r.pruned)?;
+    Ok(d)
+}
+
+fn positive(name: &str, v: f64) -> PyResult<f64> {
+    if v.is_finite() && v > 0.0 {
+        Ok(v)
+    } else {
+        Err(PyValueError::new_err(format!(
+            "{name}: {v} is not a positive number"
+        )))
+    }
+}
+
+#[pymethods]
+impl Map {
+    /// Map.load(path) -> Map
+    ///
+    /// Load a map file: ``.csv`` (the published format: no header, one row per mixture
+    /// component) or ``.cliff`` (our checksummed snapshot). Raises FileNotFoundError for a
+    /// missing file and ValueError naming the file, line and column of a bad value.
+    #[staticmethod]
+    fn load(py: Python<'_>, path: PathBuf) -> PyResult<Map> {
+        let map = py
+            .detach(|| CliffMap::load(&path))
+            .map_err(|e| map_err("path", e))?;
+        Ok(Map {
+            inner: Arc::new(map),
+        })
+    }
+
+    /// Map.demo() -> Map
+    ///
+    /// The built-in synthetic scene: a 30 m x 20 m hall with two crossing pedestrian
+    /// flows (the map ``cliffd`` serves as ``demo`` when started without ``--map``).
+    #[staticmethod]
+    fn demo() -> Map {
+        Map {
+            inner: Arc::new(CliffMap::demo()),
+        }
+    }
+
+    /// save(path) -> None
+    ///
+    /// Write the map: ``.csv`` in the published format, ``.cliff`` as a snapshot
+    /// (chosen by the file's extension).
+    fn save(&self, py: Python<'_>, path: PathBuf) -> PyResult<()> {
+        let map = self.inner.clone();
+        py.detach(move || map.save(&path))
+            .map_err(|e| map_err("path", e))
+    }
+
+    /// info() -> dict
+    ///
+    /// Summary figures (as ``cliff map info`` prints them): ``locations``,
+    /// ``components``, ``components_per_location`` (min, max), ``grid_step`` (m),
+    /// ``extent`` ((x_min, y_min), (x_max, y_max)), ``observation_ratio`` (min, max),
+    /// ``clamped_covariances`` and ``renormalised_locations`` (what was fixed at load).
+    fn info<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let i = self.inner.info();
+        let d = PyDict::new(py);
+        d.set_item("locations", i.locations)?;
+        d.set_item("components", i.components)?;
+        d.set_item("components_per_location", i.components_per_location)?;
+        d.set_item("grid_step", i.grid_step)?;
+        d.set_item(
+            "extent",
+            ((i.extent.0.x, i.extent.0.y), (i.extent.1.x, i.extent.1.y)),
+        )?;
+        d.set_item("observation_ratio", i.observation_ratio)?;
+        d.set_item("clamped_covariances", i.report.clamped_covariances)?;
+        d.set_item("renormalised_locations", i.report.renormalised_locations)?;
+        Ok(d)
+    }
+
+    /// float64 array (locations, 2): x, y of every location (m).
+    #[getter]
+    fn locations<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
+        let locs = self.inner.locations();
+        Array2::from_shape_fn((locs.len(), 2), |(i, c)| {
+            if c == 0 {
+                locs[i].position.x
+            } else {
+                locs[i].position.y
+            }
+        })
+        .into_pyarray(py)
+    }
+
+    /// float64 array (locations,): samples seen at each location / the largest count.
+    #[getter]
+    fn observation_ratio<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        Array1::from_iter(self.inner.locations().iter().map(|l| l.observation_ratio))
+            .into_pyarray(py)
+    }
+
+    /// float64 array (locations,): moving samples / all samples at each location.
+    #[getter]
+    fn motion_ratio<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        Array1::from_iter(self.inner.locations().iter().map(|l| l.motion_ratio)).into_pyarray(py)
+    }
+
+    /// float64 array (components, 9), one row per mixture component, columns
+    /// x, y (of its location, m), theta (mean direction, rad in [0, 2pi)), rho (mean
+    /// speed, m/s), cov_tt, cov_tr, cov_rt, cov_rr (covariance of (theta, rho)) and
+    /// weight. For a quiver plot: ``plt.quiver(c[:, 0], c[:, 1], c[:, 3] *
+    /// np.cos(c[:, 2]), c[:, 3] * np.sin(c[:, 2]))``.
+    #[getter]
+    fn components<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        let mut flat = Vec::new();
+        for l in self.inner.locations() {
+            for c in &l.components {
+                flat.extend_from_slice(&[
+                    l.position.x,
+                    l.position.y,
+                    c.theta,
+                    c.rho,
+                    c.cov[0],
+                    c.cov[1],
+                    c.cov[2],
+                    c.cov[3],
+                    c.weight,
+                ]);
+            }
+        }
+        let n = flat.len() / 9;
+        Ok(Array2::from_shape_vec((n, 9), flat)
+            .map_err(|e| PyValueError::new_err(e.to_string()))?
+            .into_pyarray(py))
+    }
+
+    /// int64 array (components,): the location (row of ``locations``) of each component.
+    #[getter]
+    fn component_location<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<i64>> {
+        Array1::from_iter(
+            self.inner
+                .locations()
+                .iter()
+                .enumerate()
+                .flat_map(|(i, l)| std::iter::repeat_n(i as i64, l.components.len())),
+        )
+        .into_pyarray(py)
+    }
+
+    /// score(tracks, *, format="thor", radius=None) -> dict
+    ///
+    /// How well the map explains held-out trajectories (as ``cliff map score``): every
+    /// moving row is scored at the nearest location strictly within ``radius`` metres
+    /// (``None``: the map's grid step). Keys:
+    /// ``mean_log_likelihood``, ``median_log_likelihood``, ``observations`` (moving rows),
+    /// ``standing``, ``unmatched`` (no location near), ``share_below`` (share of matched
+    /// rows scoring below ``bad_below``), ``bad_below``, ``radius``.
+    #[pyo3(signature = (tracks, *, format = "thor", radius = None))]
+    fn score<'py>(
+        &self,
+        py: Python<'py>,
+        tracks: &Bound<'py, PyAny>,
+        format: &str,
+        radius: Option<f64>,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let format = parse_format(format)?;
+        let radius = positive("radius", radius.unwrap_or(self.inner.grid().step()))?;
+        let tracks = read_tracks_arg(tracks, format)?;
+        let map = self.inner.clone();
+        let r = py
+            .detach(move || {
+                let obs = observations_from_tracks(&tracks);
+                cliff::map::score(
+                    &map,
+                    &obs,
+                    &ScoreParams {
+                        radius,
+                        ..ScoreParams::default()
+                    },
+                )
+            })
+            .map_err(|e| PyValueError::new_err(format!("tracks: {e}")))?;
+        let d = PyDict::new(py);
+        d.set_item("mean_log_likelihood", r.mean_log_likelihood)?;
+        d.set_item("median_log_likelihood", r.median_log_likelihood)?;
+        d.set_item("observations", r.observations)?;
+        d.set_item("standing", r.standing)?;
+        d.set_item("unmatched", r.unmatched)?;
+        d.set_item("share_below", r.share_below)?;
+        d.set_item("bad_below", r.bad_below)?;
+        d.set_item("radius", r.radius)?;
+        Ok(d)
+    }
+
+    /// The same as ``cliff_lhmp.predict(self, histories, ...)``.
+    #[pyo3(signature = (histories, *, k = 20, dt = 0.4, horizon = 12.0, beta = 1.0,
+        radius = 0.7071067811865476, seed = 0, method = "cliff", heading = "circular-mean"))]
+    #[allow(clippy::too_many_arguments)]
+    fn predict(
+        &self,
+        py: Python<'_>,
+        histories: &Bound<'_, PyAny>,
+        k: i64,
+        dt: f64,
+        horizon: f64,
+        beta: f64,
+        radius: f64,
+        seed: i128,
+        method: &str,
+        heading: &str,
+    ) -> PyResult<Prediction> {
+        let args = PredictArgs {
+            k,
+            dt,
+            horizon,
+            beta,
+            radius,
+            seed,
+            method,
+            heading,
+        };
+        predict_local(py, self.inner.clone(), histories, &args)
+    }
+
+    fn __repr__(&self) -> String {
+        let i = self.inner.info();
+        format!(
+            "Map(locations={}, components={}, grid_step={})",
+            i.locations, i.components, i.grid_step
+        )
+    }
+}
+
+/// build_map(tracks, *, format="thor", grid=1.0, radius=1.0) -> Map
+///
+/// Build a CLiFF-map from recorded trajectories (as ``cliff map build``): mean shift
+/// and EM on the velocities seen within ``radius`` metres of every node of a grid with
+/// step ``grid`` metres. ``tracks`` is a trajectory file or a list of them, in
+/// ``format`` ("thor" or "atc": rows of time, person id, x, y, speed, motion angle).
+/// Runs on all cores, with the GIL released.
+#[pyfunction]
+#[pyo3(signature = (tracks, *, format = "thor", grid = 1.0, radius = 1.0))]
+pub fn build_map(
+    py: Python<'_>,
+    tracks: &Bound<'_, PyAny>,
+    format: &str,
+    grid: f64,
+    radius: f64,
+) -> PyResult<Map> {
+    let format = parse_format(format)?;
+    let grid = positive("grid", grid)?;
+    let radius = positive("radius", radius)?;
+    let tracks = read_tracks_arg(tracks, format)?;
+    let built = py
+        .detach(move || {
+            let obs = observations_from_tracks(&tracks);
+            cliff::map::build_map(
+                &obs,
+                &BuildParams {
+                    grid,
+                    radius,
+                    ..BuildParams::default()
+                },
+            )
+        })
+        .map_err(|e| PyValueError::new_err(format!("build_map: {e}")))?;
+    Ok(Map {
+        inner: Arc::new(built.map),
+    })
+}
+
+/// A map that learns online: each ``update`` decays the counts it holds and folds in
+/// a new batch of trajectories (as ``cliff map update``).
+///
+/// ``OnlineMap(map, *, count_scale=None, decay=0.5, radius=None)`` starts from
+/// ``map``, whose observation ratio 1 stands for ``count_scale`` moving samples (the
+/// busiest node's count when it was built; ``None``: the busiest node of the first
+/// update's batch, so that the map weighs as much as that node). ``decay`` in (0, 1]
+/// multiplies the counts at each update; ``radius`` (m) is how far a node collects
+/// samples (``None``: the grid step).
+///
+/// Example:
+///     >>> online = cliff_lhmp.OnlineMap(cliff_lhmp.Map.load("hour9.csv"))
+///     >>> online.update("hour10.csv", format="atc")["updated"]
+///     >>> online.map().save("hour10.cliff")
+#[pyclass(module = "cliff_lhmp", frozen)]
+pub struct OnlineMap {
+    inner: Mutex<OnlineState>,
+}
+
+struct OnlineState {
+    online: RustOnlineMap,
+    scale_set: bool,
+}
+
+#[pymethods]
+impl OnlineMap {
+    #[new]
+    #[pyo3(signature = (map, *, count_scale = None, decay = 0.5, radius = None))]
+    fn new(
+        map: &Bound<'_, Map>,
+        count_scale: Option<f64>,
+        decay: f64,
+        radius: Option<f64>,
+    ) -> PyResult<Self> {
+        if let Some(r) = radius {
+            positive("radius", r)?;
+        }
+        if let Some(c) = count_scale {
+            positive("count_scale", c)?;
+        }
+        if !(decay > 0.0 && decay <= 1.0) {
+            return Err(PyValueError::new_err(format!(
+                "decay: {decay} must be in (0, 1]"
+            )));
+        }
+        let params = UpdateParams {
+            decay,
+            radius,
+            ..UpdateParams::default()
+        };
+        let online = RustOnlineMap::from_map(&map.get().inner, count_scale.unwrap_or(1.0), params)
+            .map_err(|e| PyValueError::new_err(format!("OnlineMap: {e}")))?;
+        Ok(OnlineMap {
+            inner: Mutex::new(OnlineState {
+                online,
+                scale_set: count_scale.is_some(),
+            }),
+        })
+    }
+
+    /// update(tracks, *, format="thor") -> dict
+    ///
+    /// Fold a batch of trajectory files into the map. Returns what changed:
+    /// ``observations``, ``updated`` (locations that got samples), ``created`` (new
+    /// locations), ``added``, ``merged`` and ``pruned`` (components).
+    #[pyo3(signature = (tracks, *, format = "thor"))]
+    fn update<'py>(
+        &self,
+        py: Python<'py>,
+        tracks: &Bound<'py, PyAny>,
+        format: &str,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let format = parse_format(format)?;
+        let tracks = read_tracks_arg(tracks, format)?;
+        let report = py
+            .detach(|| {
+                let obs = observations_from_tracks(&tracks);
+                let mut st = self.inner.lock().unwrap_or_else(|p| p.into_inner());
+                if !st.scale_set {
+                    let s = st.online.busiest_node(&obs)?.max(1) as f64;
+                    st.online.set_count_scale(s)?;
+                    st.scale_set = true;
+                }
+                st.online.update(&obs)
+            })
+            .map_err(|e| PyValueError::new_err(format!("update: {e}")))?;
+        update_report(py, &report)
+    }
+
+    /// The moving samples an observation ratio of 1 stands for.
+    #[getter]
+    fn count_scale(&self) -> f64 {
+        self.inner
+            .lock()
+            .unwrap_or_else(|p| p.into_inner())
+            .online
+            .count_scale()
+    }
+
+    /// map() -> Map
+    ///
+    /// The current map (a snapshot: later updates do not change it).
+    fn map(&self, py: Python<'_>) -> PyResult<Map> {
+        let m = py
+            .detach(|| {
+                self.inner
+                    .lock()
+                    .unwrap_or_else(|p| p.into_inner())
+                    .online
+                    .to_map()
+            })
+            .map_err(|e| map_err("map", e))?;
+        Ok(Map { inner: Arc::new(m) })
+    }
+
+    fn __len__(&self) -> usize {
+        self.inner
+            .lock()
+            .unwrap_or_else(|p| p.into_inner())
+            .online
+            .len()
+    }
+}

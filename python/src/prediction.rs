@@ -1,0 +1,219 @@
+//! In-process prediction (`cliff_lhmp.predict`) and its result type `Prediction`.
+
+use std::sync::Arc;
+
+use cliff::map::CliffMap;
+use cliff::predict::{BatchMut, predict_into};
+use cliff_client::protocol::{DecodeScratch, Limits, MAX_HISTORY, decode_request};
+use cliff_client::{Field, Rejection, Request, Status};
+use numpy::ndarray::{Array2, Array4};
+use numpy::{IntoPyArray, PyArray2, PyArray4, PyArrayMethods};
+use pyo3::exceptions::{PyMemoryError, PyValueError};
+use pyo3::prelude::*;
+
+use crate::errors::local_rejection;
+use crate::histories::{PredictArgs, add_histories};
+
+/// Sampled future trajectories of a batch of people.
+///
+/// Attributes:
+///     positions: float32 array of shape (agents, k, steps, 2): sample s of person a is
+///         positions[a, s, :lengths[a, s]]; the points after a sample's end are NaN.
+///     lengths: int64 array of shape (agents, k): valid steps of each sample (a
+///         CLiFF-LHMP sample ends where the map has no location near).
+///     dt: time between two predicted positions (s); step j (0-based) is at
+///         t_last + (j + 1) * dt, t_last the time of the person's last history row.
+#[pyclass(module = "cliff_lhmp", frozen)]
+pub struct Prediction {
+    /// float32 array (agents, k, steps, 2): the sampled positions, NaN after each
+    /// sample's end.
+    #[pyo3(get)]
+    positions: Py<PyArray4<f32>>,
+    /// int64 array (agents, k): the valid steps of each sample.
+    #[pyo3(get)]
+    lengths: Py<PyArray2<i64>>,
+    /// Time between two predicted positions (s).
+    #[pyo3(get)]
+    dt: f64,
+    shape: (usize, usize, usize),
+}
+
+impl Prediction {
+    pub fn new(
+        positions: Py<PyArray4<f32>>,
+        lengths: Py<PyArray2<i64>>,
+        dt: f64,
+        shape: (usize, usize, usize),
+    ) -> Self {
+        Prediction {
+            positions,
+            lengths,
+            dt,
+            shape,
+        }
+    }
+
+    /// A prediction from flat buffers (positions sample-major, one length per sample).
+    pub fn from_flat(
+        py: Python<'_>,
+        shape: (usize, usize, usize),
+        positions: Vec<f32>,
+        lens: &[u32],
+        dt: f64,
+    ) -> PyResult<Self> {
+        let (a, k, s) = shape;
+        let p = Array4::from_shape_vec((a, k, s, 2), positions)
+            .map_err(|e| PyValueError::new_err(format!("internal shape error: {e}")))?;
+        let l = Array2::from_shape_vec((a, k), lens.iter().map(|&v| v as i64).collect())
+            .map_err(|e| PyValueError::new_err(format!("internal shape error: {e}")))?;
+        Ok(Prediction::new(
+            p.into_pyarray(py).unbind(),
+            l.into_pyarray(py).unbind(),
+            dt,
+            shape,
+        ))
+    }
+}
+
+#[pymethods]
+impl Prediction {
+    /// Number of people (the first dimension of positions).
+    #[getter]
+    fn agents(&self) -> usize {
+        self.shape.0
+    }
+
+    /// Samples per person.
+    #[getter]
+    fn k(&self) -> usize {
+        self.shape.1
+    }
+
+    /// Steps per sample (the longest a sample can be).
+    #[getter]
+    fn steps(&self) -> usize {
+        self.shape.2
+    }
+
+    /// sample(agent, s) -> ndarray
+    ///
+    /// The valid positions of sample ``s`` of person ``agent``: a float32 view of shape
+    /// (lengths[agent, s], 2) into ``positions``.
+    fn sample<'py>(&self, py: Python<'py>, agent: usize, s: usize) -> PyResult<Bound<'py, PyAny>> {
+        let (a, k, _) = self.shape;
+        if agent >= a {
+            return Err(pyo3::exceptions::PyIndexError::new_err(format!(
+                "agent: {agent} is out of range for {a} people"
+            )));
+        }
+        if s >= k {
+            return Err(pyo3::exceptions::PyIndexError::new_err(format!(
+                "s: {s} is out of range for k = {k} samples"
+            )));
+        }
+        let len = *self
+            .lengths
+            .bind(py)
+            .readonly()
+            .get([agent, s])
+            .unwrap_or(&0);
+        let pos = self.positions.bind(py).as_any();
+        let idx = (agent, s, pyo3::types::PySlice::new(py, 0, len as isize, 1));
+        pos.get_item(idx)
+    }
+
+    fn __len__(&self) -> usize {
+        self.shape.0
+    }
+
+    fn __repr__(&self) -> String {
+        let (a, k, s) = self.shape;
+        format!("Prediction(agents={a}, k={k}, steps={s}, dt={})", self.dt)
+    }
+}
+
+/// The in-process predictor: decode the request exactly as `cliffd` does, then predict
+/// straight into the output arrays with the GIL released.
+pub fn predict_local(
+    py: Python<'_>,
+    map: Arc<CliffMap>,
+    histories: &Bound<'_, PyAny>,
+    args: &PredictArgs<'_>,
+) -> PyResult<Prediction> {
+    let params = args.params()?;
+    let mut request =
+        Request::new("local", &params).map_err(|e| PyValueError::new_err(e.to_string()))?;
+    add_histories(py, histories, &mut request)?;
+    let agents = request.agents();
+    let (k, steps) = (params.k, params.steps());
+    let limits = Limits {
+        max_agents: u32::try_from(agents).map_err(|_| {
+            PyValueError::new_err(format!(
+                "histories: {agents} people is too many for one call"
+            ))
+        })?,
+        max_k: params.k as u32,
+        max_steps: u32::try_from(steps).unwrap_or(u32::MAX),
+        max_history: MAX_HISTORY,
+    };
+    // Rust-owned buffers, handed to NumPy without a copy afterwards; a batch too large
+    // for memory is a MemoryError, not an abort.
+    let too_large = || {
+        PyMemoryError::new_err(format!(
+            "{agents} people x {k} samples x {steps} steps is too large to allocate"
+        ))
+    };
+    let floats = agents
+        .checked_mul(k)
+        .and_then(|v| v.checked_mul(steps))
+        .and_then(|v| v.checked_mul(2))
+        .ok_or_else(too_large)?;
+    let mut positions: Vec<f32> = Vec::new();
+    positions
+        .try_reserve_exact(floats)
+        .map_err(|_| too_large())?;
+    positions.resize(floats, 0.0);
+    let mut lens: Vec<u32> = Vec::new();
+    lens.try_reserve_exact(agents * k)
+        .map_err(|_| too_large())?;
+    lens.resize(agents * k, 0);
+    let header = *request.header();
+    let rows = request.rows();
+    let (pos_flat, lens_flat) = (positions.as_mut_slice(), lens.as_mut_slice());
+    py.detach(move || {
+        let mut scratch = DecodeScratch::new(&limits);
+        let params = decode_request(&header, rows, &limits, &mut scratch)?;
+        let out = BatchMut {
+            positions: as_points(pos_flat),
+            lens: lens_flat,
+        };
+        // the predictor fills every point (NaN past a sample's end)
+        predict_into(&map, scratch.states(), &params, out).map_err(|_| Rejection {
+            status: Status::Internal,
+            agent: None,
+            row: None,
+            field: Field::None,
+            limit: 0,
+        })
+    })
+    .map_err(|r| local_rejection(&r))?;
+    let positions = Array4::from_shape_vec((agents, k, steps, 2), positions)
+        .map_err(|e| PyValueError::new_err(format!("internal shape error: {e}")))?
+        .into_pyarray(py);
+    let lengths = Array2::from_shape_vec((agents, k), lens.iter().map(|&v| v as i64).collect())
+        .map_err(|e| PyValueError::new_err(format!("internal shape error: {e}")))?
+        .into_pyarray(py);
+    Ok(Prediction::new(
+        positions.unbind(),
+        lengths.unbind(),
+        params.dt,
+        (agents, k, steps),
+    ))
+}
+
+/// A flat `[x0, y0, x1, y1, ...]` slice as points.
+fn as_points(flat: &mut [f32]) -> &mut [[f32; 2]] {
+    let (points, rest) = flat.as_chunks_mut::<2>();
+    debug_assert!(rest.is_empty());
+    points
+}
