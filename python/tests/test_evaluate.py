@@ -73,7 +73,7 @@ def test_tables_are_lists_of_dicts_for_pandas(thor1_map):
         (dict(seeds=0), ValueError, "seeds: 0 must be at least 1"),
         (dict(k=0), ValueError, "k: 0 must be at least 1"),
         (dict(dt=-0.4), ValueError, "dt: -0.4 is not a positive number"),
-        (dict(format="csv"), ValueError, "format: unknown track format"),
+        (dict(format="parquet"), ValueError, "format: unknown track format"),
     ],
 )
 def test_bad_arguments(thor1_map, kwargs, exc, match):

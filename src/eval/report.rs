@@ -437,7 +437,8 @@ pub fn summary_table(rows: &[SummaryRow], horizons: &[f64]) -> String {
 /// ```
 /// assert_eq!(cliff::eval::table_horizons(8.0, 0.4), vec![2.0, 4.0, 6.0, 8.0]);
 /// assert_eq!(cliff::eval::table_horizons(30.0, 1.0), vec![5.0, 10.0, 20.0, 30.0]);
-/// assert_eq!(cliff::eval::table_horizons(4.8, 0.4), vec![2.0, 4.0, 4.8]);
+/// // (12 steps of 0.4 s: 4.8 s up to rounding)
+/// assert_eq!(cliff::eval::table_horizons(4.8, 0.4), vec![2.0, 4.0, 12.0 * 0.4]);
 /// ```
 pub fn table_horizons(horizon: f64, dt: f64) -> Vec<f64> {
     let mut h: Vec<f64> = if horizon > 12.0 + 1e-9 {
