@@ -130,9 +130,10 @@ pub enum WaitMode {
     /// since, which this client cannot see), sleep at once: the daemon has to be woken
     /// first, and a spinning client only delays that on a busy or virtualised host.
     /// Likewise when the daemon had other requests in progress at its last response
-    /// ([`ResponseHeader::busy`]): with clients queueing, spinning clients take the
-    /// cores the daemon needs (four spinning clients on two cores cost it a third of
-    /// its throughput), and a response that has to wait for others is not worth a spin.
+    /// ([`ResponseHeader::busy`]), or the last round trip took longer than the spin:
+    /// with clients queueing, spinning clients take the cores the daemon needs (four
+    /// spinning clients on two cores cost it a third of its throughput), and a response
+    /// that has to wait for others is not worth a spin. A client alone keeps spinning.
     #[default]
     Hybrid,
     /// Sleep on the daemon's event at once.
@@ -327,6 +328,8 @@ pub struct Client {
     /// The daemon had other requests in progress when it sent the last response
     /// ([`ResponseHeader::busy`]).
     daemon_busy: bool,
+    /// The last round trip took longer than the hybrid spin (a spin would not have paid).
+    slow_last: bool,
 }
 
 /// How a [`Client`] reaches its daemon.
@@ -504,6 +507,7 @@ impl Client {
             stale: 0,
             daemon_awake_until: None,
             daemon_busy: false,
+            slow_last: false,
         }
     }
 
@@ -619,8 +623,10 @@ impl Client {
         let start = Instant::now();
         let id = self.next_id;
         self.next_id = self.next_id.wrapping_add(1);
-        // a hybrid wait spins only when the daemon is awake and was not busy with others
-        let spin_pays = self.daemon_awake_at(start) && !self.daemon_busy;
+        // a hybrid wait spins only when the daemon is awake, was not busy with others, and
+        // the last round trip was shorter than the spin
+        let spin_pays = self.daemon_awake_at(start) && !self.daemon_busy && !self.slow_last;
+        let spin = self.options.spin;
         // one arm without the zenoh feature
         #[allow(clippy::infallible_destructuring_match)]
         let ipc = match &mut self.transport {
@@ -684,6 +690,7 @@ impl Client {
                     }
                     self.daemon_awake_until = awake_until(response.user_header());
                     self.daemon_busy = response.user_header().busy() > 0;
+                    self.slow_last = start.elapsed() > spin;
                     return check_response(response, id).map(Answer::Shm);
                 }
                 Ok(None) => {}
@@ -706,6 +713,7 @@ impl Client {
                     Ok(Some(r)) if r.user_header().request_id == id => {
                         self.daemon_awake_until = awake_until(r.user_header());
                         self.daemon_busy = r.user_header().busy() > 0;
+                        self.slow_last = start.elapsed() > spin;
                         check_response(r, id).map(Answer::Shm)
                     }
                     _ => Err(gone()),

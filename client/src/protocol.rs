@@ -241,8 +241,8 @@ pub struct ResponseHeader {
     pub row: u32,
     /// For a rejection: the [`Field`] code it concerns.
     pub field: u32,
-    /// For a rejection over a limit: the limit. For a batch: how many other requests the
-    /// daemon had in progress when it sent this one (see [`ResponseHeader::busy`]).
+    /// For a rejection over a limit: the limit. For a batch: how many others compete for
+    /// the daemon (see [`ResponseHeader::busy`]).
     pub limit: u32,
     /// How long (us) the daemon keeps polling for requests after this response before
     /// it sleeps on its event (0: not said). A request sent within this time finds it
@@ -252,10 +252,11 @@ pub struct ResponseHeader {
 }
 
 impl ResponseHeader {
-    /// For a batch: the other requests the daemon had in progress when it answered
-    /// (0: this client had it to itself). A [`WaitMode::Hybrid`](crate::WaitMode) client
-    /// spins only while this is 0: when requests queue up, the daemon needs the cores
-    /// that spinning clients would take.
+    /// For a batch: how many others compete for the daemon: the requests it had in
+    /// progress when it answered, plus the other connected clients when clients outnumber
+    /// the cores (0: this client has it to itself). A [`WaitMode::Hybrid`](crate::WaitMode)
+    /// client spins only while this is 0: when requests queue up or clients outnumber
+    /// cores, the daemon needs the cores that spinning clients would take.
     pub fn busy(&self) -> u32 {
         if self.status == Status::Ok as u32 {
             self.limit

@@ -77,7 +77,7 @@ pub(crate) struct Finished<'a, O> {
     pub output: O,
     /// False when the prediction failed (a bug: decoding checks what it checks).
     pub ok: bool,
-    /// Other requests in progress (queued or finished but not yet sent).
+    /// Other requests in progress: queued, or finished in the same round.
     pub others: usize,
 }
 
@@ -261,6 +261,8 @@ impl<O: Output> Scheduler<O> {
 
     /// Hand every finished request to `f` and free its slot.
     pub fn take_finished(&mut self, mut f: impl FnMut(Finished<'_, O>)) {
+        // every response of a round counts the others of that round and those queued
+        let others = (self.queue.len() + self.done.len()).saturating_sub(1);
         while let Some(i) = self.done.pop() {
             let slot = &mut self.slots[i];
             let (Some(task), Some(output)) = (slot.task.take(), slot.output.take()) else {
@@ -272,7 +274,7 @@ impl<O: Output> Scheduler<O> {
                 agents: task.agents,
                 output,
                 ok: task.ok,
-                others: self.queue.len() + self.done.len(),
+                others,
             });
             self.free.push(i);
         }
@@ -471,6 +473,7 @@ mod tests {
         // each response says how many other requests were still in progress
         assert_eq!(others.len(), 3);
         assert!(others[0] >= 1 && others[2] == 0, "{others:?}");
+        assert!(others.windows(2).all(|w| w[0] >= w[1]), "{others:?}");
         assert!(
             s.parallel_chunks == 0,
             "rounds under the threshold run serially"

@@ -135,6 +135,8 @@ pub struct Daemon {
     /// Reload requests and the reload generation that answers each.
     reload_waiters: Vec<(u64, Active)>,
     stats: Stats,
+    /// Cores of this host (for the busy hint of responses).
+    cores: usize,
     /// Remote clients over zenoh, once [`Daemon::serve_zenoh`] started them.
     #[cfg(feature = "zenoh")]
     remote: Option<Remote>,
@@ -246,6 +248,7 @@ impl Daemon {
             node,
             reload_waiters: Vec::new(),
             stats: Stats::default(),
+            cores: crate::settings::available_cores(),
             #[cfg(feature = "zenoh")]
             remote: None,
             settings,
@@ -530,6 +533,14 @@ impl Daemon {
 
     /// Send the responses of finished requests.
     fn send_finished(&mut self) {
+        // Other clients that compete for the cores: when the clients connected (and the
+        // daemon) outnumber the cores, a spinning client takes a core the daemon needs.
+        let clients = self.service.dynamic_config().number_of_clients();
+        let crowd = if clients > 1 && clients >= self.cores {
+            clients - 1
+        } else {
+            0
+        };
         let Self {
             scheduler,
             stats,
@@ -546,7 +557,8 @@ impl Daemon {
                 rh.agents = f.agents as u32;
                 rh.k = f.params.k as u32;
                 rh.steps = f.params.steps() as u32;
-                rh.limit = f.others.min(u32::MAX as usize) as u32; // ResponseHeader::busy
+                // ResponseHeader::busy
+                rh.limit = (f.others + crowd).min(u32::MAX as usize) as u32;
                 stats.served += 1;
             } else {
                 stats.rejected += 1;
