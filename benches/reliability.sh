@@ -5,7 +5,7 @@
 #   2. 100 clients killed with SIGKILL mid-request (10 waves of 10) while two verified
 #      clients run: those see no error and no mismatch, and afterwards every client slot
 #      is free again (30 clients connect at once to a daemon of --max-clients 32);
-#   3. the daemon killed with SIGKILL under load (4 clients, deadline 200 ms) and
+#   3. the daemon killed with SIGKILL under load (4 clients at 500 Hz each, deadline 200 ms) and
 #      restarted 2 s later: every client reports the failure within its deadline and
 #      succeeds again after the restart.
 #
@@ -77,7 +77,7 @@ fi
 
 if [ "$what" = all ] || [ "$what" = restart ]; then
     start
-    "$bin/cliff-bench" --json --clients 4 --requests 20000 --warmup 10 --keep-going \
+    "$bin/cliff-bench" --json --clients 4 --requests 4000 --rate 500 --warmup 10 --keep-going \
         --deadline-ms 200 --wait hybrid > "$log.clients" || true &
     clients=$!
     sleep 3
