@@ -149,6 +149,12 @@ impl<O: Output> Scheduler<O> {
         !self.queue.is_empty()
     }
 
+    /// True when finished requests wait for [`take_finished`](Self::take_finished).
+    #[inline]
+    pub fn has_finished(&self) -> bool {
+        !self.done.is_empty()
+    }
+
     /// Requests in progress.
     #[cfg(test)]
     pub fn in_progress(&self) -> usize {

@@ -533,6 +533,9 @@ impl Daemon {
 
     /// Send the responses of finished requests.
     fn send_finished(&mut self) {
+        if !self.scheduler.has_finished() {
+            return; // (the loop polls this on every pass)
+        }
         // Other clients that compete for the cores: when the clients connected (and the
         // daemon) outnumber the cores, a spinning client takes a core the daemon needs.
         let clients = self.service.dynamic_config().number_of_clients();
