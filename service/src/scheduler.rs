@@ -1,9 +1,9 @@
 //! Requests in progress, cut into chunks that take turns.
 //!
 //! An accepted request becomes a task: its map, its decoded agents, a
-//! [`Rollout`] (the request's generator between chunks) and its output buffer (a
-//! loaned shared-memory response, or any buffer of `u32` words laid out as the protocol's
-//! payload). The serving loop runs *rounds*: each round takes tasks from the front of
+//! [`Rollout`] (the request's generator and options between chunks) and its output
+//! buffer (a loaned shared-memory response, or any buffer of `u32` words laid out as the
+//! protocol's payload: positions, lengths, and the scores when asked for). The serving loop runs *rounds*: each round takes tasks from the front of
 //! the queue, one chunk of whole agents each (about [`Settings::chunk_positions`]
 //! predicted positions), until the round holds `chunk_positions x workers` positions;
 //! the round's chunks run in parallel on the workers; tasks with agents left go to the
@@ -12,7 +12,11 @@
 //! other requests are, and large requests share the daemon evenly.
 //!
 //! Chunks of one task run in order, so the generator draws exactly as in one call:
-//! the same request and seed give the same bytes as [`cliff::predict::predict_into`].
+//! the same request and seed give the same bytes (and scores) as
+//! [`cliff::predict::predict_with`].
+//!
+//! A chunk's size counts positions at their cost: a method that costs a multiple of
+//! CLiFF-LHMP per position ([`cost_factor`]) gets chunks that many times smaller.
 //!
 //! [`Settings::chunk_positions`]: crate::Settings::chunk_positions
 
@@ -21,13 +25,13 @@ use std::sync::Arc;
 
 use cliff::map::{CliffMap, Lookup};
 use cliff::motion::State;
-use cliff::predict::{BatchMut, Method, Params, Point, Rollout, Tables};
-use cliff_client::protocol::{DecodeScratch, Limits, RequestHeader};
+use cliff::predict::{BatchMut, Method, Options, Params, Point, Rollout, Tables};
+use cliff_client::protocol::{DecodeScratch, Decoded, Limits, RequestHeader, cost_factor};
 use rayon::prelude::*;
 use tracing::error;
 
 /// A task's output: the response payload, `agents x k x steps x 2` position words
-/// then `agents x k` lengths.
+/// then `agents x k` lengths, then `agents x k` scores when the request asked for them.
 pub(crate) trait Output {
     /// The payload words.
     fn words(&mut self) -> &mut [u32];
@@ -51,6 +55,7 @@ const GRID_TESTS_PER_UNIT: usize = 8;
 struct Task {
     map: Arc<CliffMap>,
     params: Params,
+    options: Options,
     rollout: Rollout,
     agents: usize,
     next: usize,
@@ -73,6 +78,8 @@ pub(crate) struct Slot<O> {
 pub(crate) struct Finished<'a, O> {
     pub header: &'a RequestHeader,
     pub params: &'a Params,
+    /// The payload carries the scores.
+    pub scores: bool,
     pub agents: usize,
     pub output: O,
     /// False when the prediction failed (a bug: decoding checks what it checks).
@@ -162,18 +169,20 @@ impl<O: Output> Scheduler<O> {
     }
 
     /// Accept the request decoded into [`free_slot`](Self::free_slot): its agents are in
-    /// the slot's scratch, `output` holds the payload for `params` and them.
-    pub fn admit(&mut self, map: Arc<CliffMap>, params: &Params, output: O) {
+    /// the slot's scratch, `output` holds the payload for `decoded` and them.
+    pub fn admit(&mut self, map: Arc<CliffMap>, decoded: &Decoded, output: O) {
         let Some(i) = self.free.pop() else {
             debug_assert!(false, "admit without a free slot");
             return;
         };
+        let (params, options) = (&decoded.params, &decoded.options);
         let slot = &mut self.slots[i];
         let agents = slot.scratch.states().len();
-        let per_agent = params.k * params.steps();
+        let per_agent = params.k * params.steps() * cost_factor(params.method);
         // Grid-scan lookups cost more per position than a table's.
-        let weight = match (params.method, map.cached_lookup(params.radius)) {
-            (Method::Cliff, l @ Lookup::Grid(..)) => 1 + l.max_tests() / GRID_TESTS_PER_UNIT,
+        let looks_up = params.method != Method::Cvm || options.scores;
+        let weight = match map.cached_lookup(params.radius) {
+            l @ Lookup::Grid(..) if looks_up => 1 + l.max_tests() / GRID_TESTS_PER_UNIT,
             _ => 1,
         };
         let chunk = (self.chunk_positions / per_agent.saturating_mul(weight).max(1)).max(1);
@@ -192,6 +201,7 @@ impl<O: Output> Scheduler<O> {
         slot.task = Some(Task {
             map,
             params: *params,
+            options: *options,
             rollout,
             agents,
             next: 0,
@@ -206,7 +216,8 @@ impl<O: Output> Scheduler<O> {
         }
     }
 
-    /// Run one round of chunks; returns the positions predicted.
+    /// Run one round of chunks; returns the positions predicted (at their cost: times
+    /// [`cost_factor`]).
     pub fn run_round(&mut self) -> usize {
         let budget = self.chunk_positions * self.workers;
         let mut positions = 0;
@@ -216,7 +227,8 @@ impl<O: Output> Scheduler<O> {
                 .as_ref()
                 .expect("queued slots hold a task");
             let n = t.chunk.min(t.agents - t.next);
-            let p = n * t.params.k * t.params.steps();
+            // positions at their cost
+            let p = n * t.params.k * t.params.steps() * cost_factor(t.params.method);
             if !self.round.is_empty() && positions + p > budget {
                 break;
             }
@@ -277,6 +289,7 @@ impl<O: Output> Scheduler<O> {
             f(Finished {
                 header: &slot.header,
                 params: &task.params,
+                scores: task.options.scores,
                 agents: task.agents,
                 output,
                 ok: task.ok,
@@ -294,6 +307,8 @@ struct Chunk<'a> {
     states: &'a [State],
     positions: &'a mut [Point],
     lens: &'a mut [u32],
+    /// The chunk's scores (`None` when the request asked for none).
+    scores: Option<&'a mut [f32]>,
     next: &'a mut usize,
     ok: &'a mut bool,
 }
@@ -303,14 +318,21 @@ impl<'a> Chunk<'a> {
         let (k, steps) = (task.params.k, task.params.steps());
         let n = task.chunk.min(task.agents - task.next);
         let (a, b) = (task.next, task.next + n);
-        let (pos_words, lens) = words.split_at_mut(task.agents * k * steps * 2);
+        let samples = task.agents * k;
+        let (pos_words, rest) = words.split_at_mut(samples * steps * 2);
+        let (lens, score_words) = rest.split_at_mut(samples);
         let positions: &mut [Point] = bytemuck::cast_slice_mut(pos_words);
+        let scores = task.options.scores.then(|| {
+            let all: &mut [f32] = bytemuck::cast_slice_mut(score_words);
+            &mut all[a * k..b * k]
+        });
         Chunk {
             map: &task.map,
             rollout: &mut task.rollout,
             states: &states[a..b],
             positions: &mut positions[a * k * steps..b * k * steps],
             lens: &mut lens[a * k..b * k],
+            scores,
             next: &mut task.next,
             ok: &mut task.ok,
         }
@@ -394,10 +416,10 @@ mod tests {
             &mut slot.scratch,
         )
         .unwrap();
-        assert_eq!(&decoded, params);
+        assert_eq!(&decoded.params, params);
         let states = slot.scratch.states().to_vec();
-        let out = vec![0u32; payload_words(agents, params.k, params.steps())];
-        s.admit(map.clone(), params, out);
+        let out = vec![0u32; payload_words(agents, params.k, params.steps(), false)];
+        s.admit(map.clone(), &decoded, out);
         states
     }
 
