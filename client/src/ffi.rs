@@ -58,25 +58,28 @@ pub const CLIFF_WAIT_HYBRID: u32 = 1;
 /// Wait mode: sleep on the daemon's event.
 pub const CLIFF_WAIT_BLOCK: u32 = 2;
 
+// (literal values: cbindgen writes constants it can evaluate; a test checks that they
+// are the protocol's)
+
 /// Method: CLiFF-LHMP, the paper's method.
-pub const CLIFF_METHOD_CLIFF: u32 = protocol::METHOD_CLIFF;
+pub const CLIFF_METHOD_CLIFF: u32 = 0;
 /// Method: constant velocity.
-pub const CLIFF_METHOD_CVM: u32 = protocol::METHOD_CVM;
+pub const CLIFF_METHOD_CVM: u32 = 1;
 /// Method: the improved method (a preset of the options beyond the paper).
-pub const CLIFF_METHOD_IMPROVED: u32 = protocol::METHOD_IMPROVED;
+pub const CLIFF_METHOD_IMPROVED: u32 = 2;
 
 /// `CliffParams.flags` bit: the response carries a score per sample
 /// (`CliffPrediction.scores`).
-pub const CLIFF_FLAG_SCORES: u32 = protocol::FLAG_SCORES;
+pub const CLIFF_FLAG_SCORES: u32 = 1;
 
 /// `CliffParams.time_mode`: the map for the daemon's wall clock when the request
 /// arrives (the default).
-pub const CLIFF_TIME_NOW: u32 = protocol::TIME_NOW;
+pub const CLIFF_TIME_NOW: u32 = 0;
 /// `CliffParams.time_mode`: the map for `CliffParams.time` (s on the map's clock: unix
 /// time, as the tracks had it).
-pub const CLIFF_TIME_AT: u32 = protocol::TIME_AT;
+pub const CLIFF_TIME_AT: u32 = 1;
 /// `CliffParams.time_mode`: the all-day map.
-pub const CLIFF_TIME_ALL_DAY: u32 = protocol::TIME_ALL_DAY;
+pub const CLIFF_TIME_ALL_DAY: u32 = 2;
 
 /// Prediction parameters (see `cliff::predict::Params` and `cliff::predict::Options`).
 /// Codes are sent as they are: an unknown one is refused by the daemon with its status.
@@ -695,5 +698,45 @@ pub unsafe extern "C" fn cliff_client_reload_maps(client: *mut CliffClient) -> i
     match c.client.reload_maps(deadline) {
         Ok(()) => CLIFF_OK,
         Err(e) => fail(&e),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_c_constants_are_the_protocols() {
+        assert_eq!(CLIFF_METHOD_CLIFF, protocol::METHOD_CLIFF);
+        assert_eq!(CLIFF_METHOD_CVM, protocol::METHOD_CVM);
+        assert_eq!(CLIFF_METHOD_IMPROVED, protocol::METHOD_IMPROVED);
+        assert_eq!(CLIFF_FLAG_SCORES, protocol::FLAG_SCORES);
+        assert_eq!(CLIFF_TIME_NOW, protocol::TIME_NOW);
+        assert_eq!(CLIFF_TIME_AT, protocol::TIME_AT);
+        assert_eq!(CLIFF_TIME_ALL_DAY, protocol::TIME_ALL_DAY);
+    }
+
+    #[test]
+    fn best_sample_reads_the_scores_of_one_agent() {
+        let scores = [-3.0f32, -1.0, -2.0, -5.0, -4.0, -4.0];
+        let mut p = CliffPrediction {
+            request_id: 0,
+            status: 0,
+            agents: 2,
+            k: 3,
+            steps: 1,
+            positions: ptr::null(),
+            lens: ptr::null(),
+            scores: scores.as_ptr(),
+        };
+        // SAFETY: scores holds agents * k floats
+        unsafe {
+            assert_eq!(cliff_prediction_best_sample(&p, 0), 1);
+            assert_eq!(cliff_prediction_best_sample(&p, 1), 1); // the first of equals
+            assert_eq!(cliff_prediction_best_sample(&p, 2), -1);
+            assert_eq!(cliff_prediction_best_sample(ptr::null(), 0), -1);
+            p.scores = ptr::null();
+            assert_eq!(cliff_prediction_best_sample(&p, 0), -1);
+        }
     }
 }
