@@ -188,7 +188,8 @@ impl<O: Output> Scheduler<O> {
         let chunk = (self.chunk_positions / per_agent.saturating_mul(weight).max(1)).max(1);
         // Decoding checked the parameters, so the rollout cannot fail; if it did, the
         // request is answered as an internal error.
-        let (rollout, ok) = match Rollout::new(params) {
+        let rollout = Rollout::new(params).and_then(|r| r.with_options(*options));
+        let (rollout, ok) = match rollout {
             Ok(r) => (r.with_tables(Tables::CachedOnly), true),
             Err(e) => {
                 error!("request parameters passed decoding but not the predictor: {e}");
@@ -343,9 +344,10 @@ impl<'a> Chunk<'a> {
             positions: &mut *self.positions,
             lens: &mut *self.lens,
         };
+        let scores = self.scores.as_deref_mut();
         match self
             .rollout
-            .predict_agents(self.map, self.states, out, None)
+            .predict_agents(self.map, self.states, out, scores)
         {
             Ok(()) => *self.next += self.states.len(),
             Err(e) => {
@@ -367,7 +369,7 @@ fn recycle<'b>(mut v: Vec<Chunk<'_>>) -> Vec<Chunk<'b>> {
 #[cfg(test)]
 mod tests {
     use cliff::glam::DVec2;
-    use cliff::predict::{TrajectoryBatch, predict};
+    use cliff::predict::{TrajectoryBatch, predict, predict_with};
     use cliff_client::protocol::payload_words;
 
     use super::*;
@@ -400,7 +402,19 @@ mod tests {
         agents: usize,
         params: &Params,
     ) -> Vec<State> {
+        admit_with(s, map, agents, params, &Options::default())
+    }
+
+    /// As [`admit`], with options.
+    fn admit_with(
+        s: &mut Scheduler<Vec<u32>>,
+        map: &Arc<CliffMap>,
+        agents: usize,
+        params: &Params,
+        options: &Options,
+    ) -> Vec<State> {
         let mut request = cliff_client::Request::new("demo", params).unwrap();
+        request.set_options(options);
         for w in walkers(agents) {
             request.add_agent([cliff_client::Observation::with_velocity(
                 0.0,
@@ -419,18 +433,76 @@ mod tests {
             &mut slot.scratch,
         )
         .unwrap();
-        assert_eq!(&decoded.params, params);
+        assert_eq!((&decoded.params, &decoded.options), (params, options));
         let states = slot.scratch.states().to_vec();
-        let out = vec![0u32; payload_words(agents, params.k, params.steps(), false)];
+        let out = vec![0u32; decoded.payload_words(agents)];
+        assert_eq!(
+            out.len(),
+            payload_words(agents, params.k, params.steps(), options.scores)
+        );
         s.admit(map.clone(), &decoded, out);
         states
     }
 
-    /// The payload words of a batch (positions' bits, then lengths): NaN-safe equality.
+    /// The payload words of a batch (positions' bits, then lengths, then the scores'
+    /// bits when it has scores): NaN-safe equality.
     fn words_of(b: &TrajectoryBatch) -> Vec<u32> {
         let mut w: Vec<u32> = bytemuck::cast_slice(b.positions()).to_vec();
         w.extend_from_slice(b.lens());
+        w.extend(b.scores().iter().map(|v| v.to_bits()));
         w
+    }
+
+    #[test]
+    fn chunked_requests_with_options_give_the_bytes_and_scores_of_predict_with() {
+        let map = Arc::new(CliffMap::demo());
+        let params = Params {
+            k: 12,
+            horizon: 16.0,
+            seed: 23,
+            ..Params::default()
+        };
+        let cases = [
+            Options {
+                scores: true,
+                ..Options::default()
+            },
+            Options {
+                speed_beta: 2.0,
+                coast: 6.0,
+                scores: true,
+            },
+            Options {
+                speed_beta: 1.0,
+                coast: 16.0,
+                scores: false,
+            },
+        ];
+        for (i, options) in cases.iter().enumerate() {
+            for method in [Method::Cliff, Method::Cvm] {
+                let params = Params { method, ..params };
+                // chunks of one agent (480 positions): 7 rounds
+                let mut s = Scheduler::<Vec<u32>>::new(2, &Limits::default(), 1, 480).unwrap();
+                let states = admit_with(&mut s, &map, 7, &params, options);
+                let mut got = None;
+                let mut rounds = 0;
+                while s.busy() {
+                    s.run_round();
+                    rounds += 1;
+                    s.take_finished(|f| {
+                        assert!(f.ok);
+                        assert_eq!(f.scores, options.scores);
+                        got = Some(f.output);
+                    });
+                }
+                assert_eq!(rounds, 7, "case {i} {method}");
+                let mut whole = TrajectoryBatch::new();
+                predict_with(&map, &states, &params, options, &mut whole).unwrap();
+                assert_eq!(whole.scores().is_empty(), !options.scores);
+                let got = got.expect("finished");
+                assert!(got == words_of(&whole), "case {i} {method}: differs");
+            }
+        }
     }
 
     #[test]
