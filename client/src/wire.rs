@@ -348,7 +348,8 @@ pub fn encode_bad_version(request_id: u64, out: &mut Vec<u8>) {
 /// Decode a response: the version first (another one is [`WireError::Version`]: the
 /// daemon speaks it, and nothing else is read), then the header, then the payload words
 /// into `payload` (cleared). The number of words must be the one the header's shape
-/// and flags need (none for a rejection) and at most `max_words`.
+/// and flags need (none for a rejection) and at most `max_words`. A rejection of
+/// [`COMMON_RESPONSE_BYTES`] (as [`encode_bad_version`] writes it) is read as well.
 pub fn decode_response(
     bytes: &[u8],
     max_words: usize,
@@ -363,6 +364,31 @@ pub fn decode_response(
     let version = u32::from_le_bytes(bytes[..4].try_into().expect("4 bytes"));
     if version != PROTOCOL_VERSION {
         return Err(WireError::Version { found: version });
+    }
+    let mut r = Reader { b: bytes, at: 0 };
+    let read_common = |r: &mut Reader<'_>| ResponseHeader {
+        version: r.u32(),
+        status: r.u32(),
+        request_id: r.u64(),
+        agents: r.u32(),
+        k: r.u32(),
+        steps: r.u32(),
+        agent: r.u32(),
+        row: r.u32(),
+        field: r.u32(),
+        limit: r.u32(),
+        awake_us: r.u32(),
+        flags: 0,
+        reserved: 0,
+    };
+    if bytes.len() == COMMON_RESPONSE_BYTES {
+        // a rejection in the layout every version reads (what a request of another
+        // version gets, [`encode_bad_version`])
+        let h = read_common(&mut r);
+        if h.status != Status::Ok.code() {
+            payload.clear();
+            return Ok(h);
+        }
     }
     if bytes.len() < RESPONSE_HEADER_BYTES {
         return Err(WireError::TooShort {
@@ -382,21 +408,9 @@ pub fn decode_response(
         });
     }
     let mut r = Reader { b: bytes, at: 0 };
-    let h = ResponseHeader {
-        version: r.u32(),
-        status: r.u32(),
-        request_id: r.u64(),
-        agents: r.u32(),
-        k: r.u32(),
-        steps: r.u32(),
-        agent: r.u32(),
-        row: r.u32(),
-        field: r.u32(),
-        limit: r.u32(),
-        awake_us: r.u32(),
-        flags: r.u32(),
-        reserved: r.u32(),
-    };
+    let mut h = read_common(&mut r);
+    h.flags = r.u32();
+    h.reserved = r.u32();
     let need = if h.status == Status::Ok.code() {
         // in u64: a hostile header's shape must not overflow
         let samples = h.agents as u64 * h.k as u64;
@@ -582,7 +596,28 @@ mod tests {
         assert_eq!((u32_at(16), u32_at(20), u32_at(24)), (0, 0, 0)); // no batch
         assert_eq!(u32_at(36), Field::Version as u32);
         assert_eq!(u32_at(40), PROTOCOL_VERSION); // limit
-        // this version's decoder says which version the other side speaks
+        // this version reads it as the rejection it is
+        let mut payload = vec![7];
+        let h = decode_response(&reply, 8, &mut payload).unwrap();
+        assert!(payload.is_empty());
+        let r = Rejection::from_header(&h).unwrap();
+        assert_eq!(
+            (r.status, r.field, r.limit, h.request_id),
+            (
+                Status::BadVersion,
+                Field::Version,
+                PROTOCOL_VERSION,
+                0x0a0b_0c0d
+            )
+        );
+        // but 48 bytes that claim a batch are too short
+        let mut ok = reply.clone();
+        ok[4..8].copy_from_slice(&0u32.to_le_bytes());
+        assert_eq!(
+            decode_response(&ok, 8, &mut payload),
+            Err(WireError::TooShort { len: 48, need: 56 })
+        );
+        // and a daemon of another version is named by its version
         let mut payload = Vec::new();
         let mut old = reply.clone();
         old[0..4].copy_from_slice(&1u32.to_le_bytes());

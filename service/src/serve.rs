@@ -225,8 +225,11 @@ impl Daemon {
             .open_or_create()
             .map_err(|e| {
                 ipc(
-                    "cannot open or create the service of protocol version 1 \
-                     (is a daemon of version 1 serving it?)",
+                    &format!(
+                        "cannot open or create '{}' for clients of protocol version 1 \
+                         (does a daemon of version 1 serve it?)",
+                        settings.service
+                    ),
                     e,
                 )
             })?;
