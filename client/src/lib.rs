@@ -1020,8 +1020,15 @@ impl<'c> Prediction<'c> {
         split_payload(self.header(), self.payload()).lens
     }
 
-    /// The score of every sample (`agents x k`, sample `a * k + s`), when the request
-    /// asked for scores ([`Request::scores`]); empty otherwise. A score is the
+    /// True when the response carries scores ([`ResponseHeader::flags`]): the request
+    /// asked for them ([`Request::scores`]) or its method scores its samples
+    /// (`Method::Improved`).
+    pub fn has_scores(&self) -> bool {
+        self.header().has_scores()
+    }
+
+    /// The score of every sample (`agents x k`, sample `a * k + s`), when the response
+    /// carries scores ([`has_scores`](Self::has_scores)); empty otherwise. A score is the
     /// log-likelihood of the sample under the map ([`cliff::predict::Options::scores`]):
     /// compare the samples of one response.
     pub fn scores(&self) -> &[f32] {

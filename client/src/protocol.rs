@@ -70,12 +70,15 @@ pub const KIND_RELOAD: u32 = 1;
 pub const METHOD_CLIFF: u32 = 0;
 /// [`RequestHeader::method`] for the constant-velocity model.
 pub const METHOD_CVM: u32 = 1;
-/// [`RequestHeader::method`] for the improved method (`Method::Improved`: a preset of
-/// the options beyond the paper, resolved by the library).
+/// [`RequestHeader::method`] for the improved method (`Method::Improved`: CLiFF-LHMP
+/// with a preset of parameters and options, resolved by the library,
+/// `cliff::predict::preset`; the preset's beta and options replace the request's).
 pub const METHOD_IMPROVED: u32 = 2;
 
 /// [`RequestHeader::flags`] and [`ResponseHeader::flags`] bit: the response carries a
-/// score per sample after the lengths ([`cliff::predict::Options::scores`]).
+/// score per sample after the lengths ([`cliff::predict::Options::scores`]). A response
+/// to [`METHOD_IMPROVED`] always does (its preset scores the samples): read the
+/// response's flag.
 pub const FLAG_SCORES: u32 = 1;
 /// Every [`RequestHeader::flags`] bit this version knows; a request with another bit
 /// set is refused ([`Status::BadValue`], [`Field::Flags`]).
@@ -229,6 +232,7 @@ pub fn method_code(method: Method) -> u32 {
     match method {
         Method::Cliff => METHOD_CLIFF,
         Method::Cvm => METHOD_CVM,
+        Method::Improved => METHOD_IMPROVED,
     }
 }
 
@@ -237,16 +241,28 @@ pub fn method_from_code(code: u32) -> Option<Method> {
     match code {
         METHOD_CLIFF => Some(Method::Cliff),
         METHOD_CVM => Some(Method::Cvm),
+        METHOD_IMPROVED => Some(Method::Improved),
         _ => None,
     }
 }
 
 /// How much a position of `method` costs next to one of CLiFF-LHMP, for the daemon's
-/// cost accounting (request limits and chunk sizes).
+/// cost accounting (request limits and chunk sizes). 1 for every method today: the
+/// library states no cost of its own, and the improved preset
+/// (`cliff::predict::preset::IMPROVED`: beta 2 and scores) draws no more candidates per
+/// step than CLiFF-LHMP. A preset that draws more raises it here, and the limits and
+/// chunks follow.
 pub fn cost_factor(method: Method) -> usize {
     match method {
-        Method::Cliff | Method::Cvm => 1,
+        Method::Cliff | Method::Cvm | Method::Improved => 1,
     }
+}
+
+/// Whether the response to a request of `params` and `options` carries scores: when
+/// the request asks for them ([`FLAG_SCORES`]) or its method's preset scores its
+/// samples (`Improved`, [`cliff::predict::preset`]).
+pub fn scores_in_response(params: &Params, options: &Options) -> bool {
+    options.scores || cliff::predict::preset::resolve(params, options).1.scores
 }
 
 /// Which map of the time of day a request asks for ([`RequestHeader::time_mode`] and
@@ -831,9 +847,12 @@ fn finite(v: f64) -> bool {
 /// states are in the [`DecodeScratch`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Decoded {
-    /// The prediction parameters.
+    /// The prediction parameters, as asked (a preset method such as `Improved` is
+    /// resolved by the predictor).
     pub params: Params,
-    /// The options beyond the paper (all off for a request that asks for none).
+    /// The options beyond the paper, as asked (all off for a request that asks for
+    /// none), except `scores`: whether the response carries scores, i.e. the request
+    /// set [`FLAG_SCORES`] or its method's preset scores its samples (`Improved`).
     pub options: Options,
     /// Which map of the time of day the request asks for.
     pub map_time: MapTime,
@@ -977,18 +996,21 @@ pub fn decode_request(
             ..Rejection::new(BadLayout, Field::Agents)
         });
     }
+    let params = Params {
+        method,
+        k: h.k as usize,
+        dt: h.dt,
+        horizon: h.horizon,
+        beta: h.beta,
+        radius: h.radius,
+        seed: h.seed,
+        heading,
+    };
+    let mut options = h.options();
+    options.scores = scores_in_response(&params, &options);
     Result::Ok(Decoded {
-        params: Params {
-            method,
-            k: h.k as usize,
-            dt: h.dt,
-            horizon: h.horizon,
-            beta: h.beta,
-            radius: h.radius,
-            seed: h.seed,
-            heading,
-        },
-        options: h.options(),
+        params,
+        options,
         map_time,
     })
 }
@@ -1189,6 +1211,18 @@ mod tests {
         assert_eq!(st[1].position, DVec2::new(-9.0, 0.5));
         assert!((st[2].speed - 1.5).abs() < 1e-12);
         assert!((st[2].heading - std::f64::consts::FRAC_PI_2).abs() < 1e-12);
+        // every method's code decodes to the method
+        for method in [Method::Cliff, Method::Cvm, Method::Improved] {
+            let mut h = RequestHeader::from_params(&Params {
+                method,
+                ..Params::default()
+            });
+            h.agents = 3;
+            let p = decode_request(&h, &rows, &Limits::default(), &mut s).unwrap();
+            assert_eq!(p.params.method, method);
+            assert_eq!(method_from_code(method_code(method)), Some(method));
+        }
+        assert_eq!(method_from_code(3), None);
     }
 
     #[test]
@@ -1448,7 +1482,7 @@ mod tests {
             h.method = if rng.random_ratio(1, 40) {
                 rng.random()
             } else {
-                rng.random_range(0..2)
+                rng.random_range(0..3)
             };
             h.heading_rule = if rng.random_ratio(1, 40) {
                 7

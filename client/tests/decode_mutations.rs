@@ -43,7 +43,7 @@ fn valid(rng: &mut impl Rng) -> (RequestHeader, Vec<Observation>) {
         horizon,
         radius: rng.random_range(0.1..3.0),
         beta: rng.random_range(0.0..3.0),
-        method: rng.random_range(0..2),
+        method: rng.random_range(0..3),
         heading_rule: rng.random_range(0..2),
         seed: rng.random(),
         speed_beta: [0.0, rng.random_range(0.0..4.0)][rng.random_range(0..2)],

@@ -134,7 +134,7 @@ impl Client {
                 let mut client = self.inner.lock().unwrap_or_else(|p| p.into_inner());
                 let p = client.predict(&request)?;
                 let positions: Vec<f32> = p.positions().as_flattened().to_vec();
-                let scores = args.scores.then(|| p.scores().to_vec());
+                let scores = p.has_scores().then(|| p.scores().to_vec());
                 Ok((p.shape(), positions, p.lens().to_vec(), scores))
             })
             .map_err(|e| client_err(py, e))?;

@@ -4,7 +4,9 @@ use std::sync::Arc;
 
 use cliff::map::CliffMap;
 use cliff::predict::{BatchMut, predict_into_with};
-use cliff_client::protocol::{DecodeScratch, Limits, MAX_HISTORY, decode_request};
+use cliff_client::protocol::{
+    DecodeScratch, Limits, MAX_HISTORY, decode_request, scores_in_response,
+};
 use cliff_client::{Field, Rejection, Status};
 use numpy::ndarray::{Array2, Array4};
 use numpy::{IntoPyArray, PyArray2, PyArray4, PyArrayMethods};
@@ -24,8 +26,9 @@ use crate::histories::{PredictArgs, add_histories};
 ///     dt: time between two predicted positions (s); step j (0-based) is at
 ///         t_last + (j + 1) * dt, t_last the time of the person's last history row.
 ///     scores: float32 array of shape (agents, k) when the call asked for
-///         ``scores=True``, else None: the log-likelihood of each sample under the map
-///         (higher is more likely; compare the samples of one call).
+///         ``scores=True`` or used ``method="improved"`` (which scores its samples),
+///         else None: the log-likelihood of each sample under the map (higher is more
+///         likely; compare the samples of one call).
 #[pyclass(module = "cliff_lhmp", frozen)]
 pub struct Prediction {
     /// float32 array (agents, k, steps, 2): the sampled positions, NaN after each
@@ -218,8 +221,10 @@ pub fn predict_local(
     lens.try_reserve_exact(agents * k)
         .map_err(|_| too_large())?;
     lens.resize(agents * k, 0);
+    // the scores asked for, or those of a method that scores its samples (improved)
+    let scored = scores_in_response(&params, &args.options());
     let mut scores: Vec<f32> = Vec::new();
-    if args.scores {
+    if scored {
         scores
             .try_reserve_exact(agents * k)
             .map_err(|_| too_large())?;
@@ -262,7 +267,7 @@ pub fn predict_local(
         (agents, k, steps),
         positions,
         &lens,
-        args.scores.then_some(scores),
+        scored.then_some(scores),
         params.dt,
     )
 }

@@ -25,7 +25,7 @@ use std::sync::Arc;
 
 use cliff::map::{CliffMap, Lookup};
 use cliff::motion::State;
-use cliff::predict::{BatchMut, Method, Options, Params, Point, Rollout, Tables};
+use cliff::predict::{BatchMut, Options, Params, Point, Rollout, Tables};
 use cliff_client::protocol::{DecodeScratch, Decoded, Limits, RequestHeader, cost_factor};
 use rayon::prelude::*;
 use tracing::error;
@@ -180,7 +180,7 @@ impl<O: Output> Scheduler<O> {
         let agents = slot.scratch.states().len();
         let per_agent = params.k * params.steps() * cost_factor(params.method);
         // Grid-scan lookups cost more per position than a table's.
-        let looks_up = params.method != Method::Cvm || options.scores;
+        let looks_up = params.method.samples_map() || options.scores;
         let weight = match map.cached_lookup(params.radius) {
             l @ Lookup::Grid(..) if looks_up => 1 + l.max_tests() / GRID_TESTS_PER_UNIT,
             _ => 1,
@@ -369,7 +369,7 @@ fn recycle<'b>(mut v: Vec<Chunk<'_>>) -> Vec<Chunk<'b>> {
 #[cfg(test)]
 mod tests {
     use cliff::glam::DVec2;
-    use cliff::predict::{TrajectoryBatch, predict, predict_with};
+    use cliff::predict::{Method, TrajectoryBatch, predict, predict_with};
     use cliff_client::protocol::payload_words;
 
     use super::*;
@@ -433,12 +433,14 @@ mod tests {
             &mut slot.scratch,
         )
         .unwrap();
-        assert_eq!((&decoded.params, &decoded.options), (params, options));
+        assert_eq!(&decoded.params, params);
+        let scored = options.scores || params.method == Method::Improved;
+        assert_eq!(decoded.options.scores, scored);
         let states = slot.scratch.states().to_vec();
         let out = vec![0u32; decoded.payload_words(agents)];
         assert_eq!(
             out.len(),
-            payload_words(agents, params.k, params.steps(), options.scores)
+            payload_words(agents, params.k, params.steps(), scored)
         );
         s.admit(map.clone(), &decoded, out);
         states
@@ -479,7 +481,7 @@ mod tests {
             },
         ];
         for (i, options) in cases.iter().enumerate() {
-            for method in [Method::Cliff, Method::Cvm] {
+            for method in [Method::Cliff, Method::Cvm, Method::Improved] {
                 let params = Params { method, ..params };
                 // chunks of one agent (480 positions): 7 rounds
                 let mut s = Scheduler::<Vec<u32>>::new(2, &Limits::default(), 1, 480).unwrap();
@@ -491,14 +493,17 @@ mod tests {
                     rounds += 1;
                     s.take_finished(|f| {
                         assert!(f.ok);
-                        assert_eq!(f.scores, options.scores);
+                        // the improved preset scores its samples
+                        let scored = options.scores || method == Method::Improved;
+                        assert_eq!(f.scores, scored);
                         got = Some(f.output);
                     });
                 }
                 assert_eq!(rounds, 7, "case {i} {method}");
                 let mut whole = TrajectoryBatch::new();
                 predict_with(&map, &states, &params, options, &mut whole).unwrap();
-                assert_eq!(whole.scores().is_empty(), !options.scores);
+                let scored = options.scores || method == Method::Improved;
+                assert_eq!(whole.scores().is_empty(), !scored);
                 let got = got.expect("finished");
                 assert!(got == words_of(&whole), "case {i} {method}: differs");
             }

@@ -5,7 +5,6 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
 use cliff::map::CliffMap;
-use cliff::predict::Method;
 use cliff_client::protocol::{
     self, Decoded, FLAG_SCORES, Field, KIND_RELOAD, Limits, Observation, PROTOCOL_VERSION,
     Rejection, RequestHeader, ResponseHeader, Status,
@@ -779,7 +778,7 @@ fn map_for(registry: &mut Registry, entry: usize, decoded: &Decoded) -> Arc<Clif
 /// Whether a request looks up the map at its radius: every method but constant
 /// velocity, and constant velocity when it scores its samples.
 fn uses_map(d: &Decoded) -> bool {
-    d.params.method != Method::Cvm || d.options.scores
+    d.params.method.samples_map() || d.options.scores
 }
 
 /// Validate a request against the loaded maps, their radius limits and the limits; the

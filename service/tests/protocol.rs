@@ -63,7 +63,7 @@ fn options_scores_and_time_through_the_daemon_give_the_in_process_bytes() {
     let mut with_scores = 0;
     let mut best_differs = 0;
     for (i, base) in requests.iter().enumerate() {
-        for method in [Method::Cliff, Method::Cvm] {
+        for method in [Method::Cliff, Method::Cvm, Method::Improved] {
             for (j, (speed_beta, coast, scores)) in [
                 (0.0, 0.0, true),
                 (2.0, 0.0, false),
@@ -86,8 +86,11 @@ fn options_scores_and_time_through_the_daemon_give_the_in_process_bytes() {
                     .unwrap_or_else(|e| panic!("request {i} {method} {j}: {e}"));
                 let got = scored(&p);
                 assert_eq!(got, want, "request {i} {method} options {j}");
-                assert_eq!(p.scores().len(), if scores { 2 * 20 } else { 0 });
-                if scores {
+                // the improved method scores its samples, asked or not
+                let scored = scores || method == Method::Improved;
+                assert_eq!(p.has_scores(), scored);
+                assert_eq!(p.scores().len(), if scored { 2 * 20 } else { 0 });
+                if scored {
                     with_scores += 1;
                     for a in 0..2 {
                         let best = p.best_sample(a).expect("scores");
@@ -103,7 +106,7 @@ fn options_scores_and_time_through_the_daemon_give_the_in_process_bytes() {
             }
         }
     }
-    assert_eq!(with_scores, 6 * 2 * 3);
+    assert_eq!(with_scores, 6 * (2 * 3 + 4));
     // the scores rank samples: the best one is not always the first
     assert!(best_differs > 10, "{best_differs}");
 }
