@@ -324,7 +324,8 @@ impl Request {
     }
 
     /// With (or without, the default) a score per sample in the response
-    /// ([`Prediction::scores`], [`Prediction::best_sample`]).
+    /// ([`Prediction::scores`], [`Prediction::best_sample`]). The improved method
+    /// scores its samples either way.
     pub fn scores(mut self, on: bool) -> Self {
         let mut o = self.options();
         o.scores = on;
@@ -1071,13 +1072,17 @@ impl<'c> Prediction<'c> {
     }
 
     /// Copy into a [`TrajectoryBatch`](cliff::predict::TrajectoryBatch) (for keeping the
-    /// result beyond the next call).
+    /// result beyond the next call), with the scores when the response carries them.
     pub fn to_batch(&self, out: &mut cliff::predict::TrajectoryBatch) {
         let (a, k, s) = self.shape();
         out.reshape(a, k, s);
         let m = out.as_mut();
         m.positions.copy_from_slice(self.positions());
         m.lens.copy_from_slice(self.lens());
+        let scores = self.has_scores().then(|| self.scores());
+        // a checked response holds one score per sample of its shape
+        out.set_scores(scores)
+            .expect("a checked response has a score per sample");
     }
 }
 

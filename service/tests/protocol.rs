@@ -62,6 +62,7 @@ fn options_scores_and_time_through_the_daemon_give_the_in_process_bytes() {
     let times = [MapTime::Now, MapTime::At(1_351_700_000.0), MapTime::AllDay];
     let mut with_scores = 0;
     let mut best_differs = 0;
+    let mut kept = cliff::predict::TrajectoryBatch::new();
     for (i, base) in requests.iter().enumerate() {
         for method in [Method::Cliff, Method::Cvm, Method::Improved] {
             for (j, (speed_beta, coast, scores)) in [
@@ -86,6 +87,10 @@ fn options_scores_and_time_through_the_daemon_give_the_in_process_bytes() {
                     .unwrap_or_else(|e| panic!("request {i} {method} {j}: {e}"));
                 let got = scored(&p);
                 assert_eq!(got, want, "request {i} {method} options {j}");
+                // a copy keeps the scores (and none when there are none)
+                p.to_batch(&mut kept);
+                assert_eq!(score_bits(kept.scores()), want.1);
+                assert_eq!(kept.best_sample(1), p.best_sample(1));
                 // the improved method scores its samples, asked or not
                 let scored = scores || method == Method::Improved;
                 assert_eq!(p.has_scores(), scored);
