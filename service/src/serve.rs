@@ -489,7 +489,7 @@ impl Daemon {
 
     /// Answer every request waiting on protocol version 1's service with
     /// `bad-version` (the daemon's version in `limit`); true when there was one. The run
-    /// loop calls this every [`LEGACY_POLL`] and after every wake-up.
+    /// loop calls this every 2 ms (so also after every wake-up from sleep).
     pub fn answer_old_clients(&mut self) -> bool {
         let mut any = false;
         loop {
