@@ -419,6 +419,7 @@ impl Daemon {
                         info!(
                             served = s.served - reported.served,
                             rejected = s.rejected - reported.rejected,
+                            old_clients = s.old_clients - reported.old_clients,
                             undelivered = s.failed - reported.failed,
                             clients = self.service.dynamic_config().number_of_clients(),
                             "requests in the last {} s",
@@ -440,6 +441,8 @@ impl Daemon {
                             std::thread::sleep(Duration::from_millis(1));
                         }
                     }
+                    // the signal may have come from a client of protocol version 1
+                    next_legacy = Instant::now();
                 } else if now.duration_since(last_activity) >= POLITE_AFTER {
                     // let a client on this core run (oversubscribed hosts)
                     std::thread::yield_now();
@@ -489,7 +492,7 @@ impl Daemon {
 
     /// Answer every request waiting on protocol version 1's service with
     /// `bad-version` (the daemon's version in `limit`); true when there was one. The run
-    /// loop calls this every 2 ms (so also after every wake-up from sleep).
+    /// loop calls this every 2 ms while it polls, and after every wake-up from sleep.
     pub fn answer_old_clients(&mut self) -> bool {
         let mut any = false;
         loop {

@@ -513,8 +513,8 @@ mod tests {
         assert_eq!(get(&c, "scouting/multicast/enabled"), "false");
         assert_eq!(get(&c, "scouting/gossip/enabled"), "false");
         assert_eq!(get(&c, "listen/endpoints"), r#"["tcp/127.0.0.1:7447"]"#);
-        // 32 agents x 64 rows x 48 bytes + 152 + 4096
-        let want = 32 * 64 * 48 + 152 + 4096;
+        // 32 agents x 64 rows x 48 bytes + the 184-byte header + 4096
+        let want = 32 * 64 * 48 + 184 + 4096;
         assert_eq!(
             get(&c, "transport/link/rx/max_message_size"),
             want.to_string()
