@@ -33,6 +33,7 @@ use std::f64::consts::TAU;
 use std::path::Path;
 use std::sync::Arc;
 
+use crate::motion::SpeedPrior;
 use build::{Gauss2, floor_eigenvalues};
 use glam::DVec2;
 use rand::distr::Distribution;
@@ -167,6 +168,9 @@ pub enum MapError {
         /// What is wrong.
         message: String,
     },
+    /// A speed prior's values are unusable.
+    #[error("{0}")]
+    SpeedPrior(String),
     /// The file's extension names no known map format.
     #[error("{0}: unknown map format (use .csv for the published format or .cliff for a snapshot)")]
     UnknownFormat(String),
@@ -293,6 +297,9 @@ pub struct CliffMap {
     /// The same components for [`CliffMap::step_log_density`].
     step_density: Vec<StepDensity>,
     report: MapReport,
+    /// How speeds ahead regress to a typical speed, learned with the map (see
+    /// [`SpeedPrior`](crate::motion::SpeedPrior)); `None` for maps without one.
+    speed_prior: Option<SpeedPrior>,
     /// Neighbour tables built so far, one per sampling radius, under a memory budget.
     tables: TableCache,
 }
@@ -311,6 +318,7 @@ impl Clone for CliffMap {
             density: self.density.clone(),
             step_density: self.step_density.clone(),
             report: self.report,
+            speed_prior: self.speed_prior,
             tables: self.tables.clone(),
         }
     }
@@ -528,6 +536,7 @@ impl CliffMap {
             density,
             step_density,
             report,
+            speed_prior: None,
             tables: TableCache::default(),
         })
     }
@@ -554,6 +563,22 @@ impl CliffMap {
     /// flows (east-west along the hall, north-south across it) and a mixed crossing.
     pub fn demo() -> Self {
         demo::demo_map()
+    }
+
+    /// The speed prior learned with the map (`cliff map build` fits one from its
+    /// tracks and snapshots keep it; the published CSV format has no place for it).
+    pub fn speed_prior(&self) -> Option<SpeedPrior> {
+        self.speed_prior
+    }
+
+    /// Attach a speed prior (checked: the error says which value is wrong), or remove
+    /// it with `None`.
+    pub fn set_speed_prior(&mut self, prior: Option<SpeedPrior>) -> Result<(), MapError> {
+        if let Some(p) = &prior {
+            p.validate().map_err(MapError::SpeedPrior)?;
+        }
+        self.speed_prior = prior;
+        Ok(())
     }
 
     /// The locations, in the order they were given.
