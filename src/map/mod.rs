@@ -229,6 +229,16 @@ struct SpeedComponent {
     sd: f64,
 }
 
+/// Per-component entry of [`CliffMap::direction_following`], parallel to
+/// [`DirectionComponent`]: the normalised weight (0 for padding) and the unit vector of
+/// the mean direction.
+#[derive(Debug, Clone, Copy)]
+struct FollowComponent {
+    weight: f64,
+    cos_mu: f64,
+    sin_mu: f64,
+}
+
 /// Widest mixture whose locations get padded (see [`pad_components`]): more comparisons
 /// per draw than this cost more than the mispredicted branches they save.
 const MAX_PADDED_COMPONENTS: usize = 8;
@@ -290,6 +300,8 @@ pub struct CliffMap {
     table: Vec<DirectionComponent>,
     /// Speeds given the direction draw, indexed like `table`.
     speed: Vec<SpeedComponent>,
+    /// Components for [`CliffMap::direction_following`], indexed like `table`.
+    follow: Vec<FollowComponent>,
     /// Densities for sample scores: location `i`'s components are
     /// `density[density_start[i]..density_start[i + 1]]`.
     density_start: Vec<u32>,
@@ -314,6 +326,7 @@ impl Clone for CliffMap {
             comp_start: self.comp_start.clone(),
             table: self.table.clone(),
             speed: self.speed.clone(),
+            follow: self.follow.clone(),
             density_start: self.density_start.clone(),
             density: self.density.clone(),
             step_density: self.step_density.clone(),
@@ -454,6 +467,7 @@ impl CliffMap {
         let mut comp_start = Vec::with_capacity(locations.len() + 1);
         let mut table = Vec::new();
         let mut speed = Vec::new();
+        let mut follow = Vec::new();
         let mut density_start = Vec::with_capacity(locations.len() + 1);
         let mut density = Vec::new();
         let mut report = MapReport::default();
@@ -476,6 +490,11 @@ impl CliffMap {
                     cum_weight: cum,
                     mu: c.theta,
                     sigma,
+                });
+                follow.push(FollowComponent {
+                    weight: c.weight / total,
+                    cos_mu: c.theta.cos(),
+                    sin_mu: c.theta.sin(),
                 });
                 speed.push(if cov[0] > 0.0 {
                     SpeedComponent {
@@ -509,6 +528,10 @@ impl CliffMap {
         comp_start.push(table.len() as u32);
         density_start.push(density.len() as u32);
         let (_, speed) = pad_with(comp_start.clone(), speed, |last| last);
+        let (_, follow) = pad_with(comp_start.clone(), follow, |last| FollowComponent {
+            weight: 0.0,
+            ..last
+        });
         let step_density = density
             .iter()
             .map(|g| StepDensity {
@@ -532,6 +555,7 @@ impl CliffMap {
             comp_start,
             table,
             speed,
+            follow,
             density_start,
             density,
             step_density,
@@ -735,6 +759,60 @@ impl CliffMap {
         DirectionSampler {
             table: &self.table[a..b],
         }
+    }
+
+    /// A direction draw at location `index` that favours the components going the way
+    /// the walker heads (unit vector `(ux, uy)`): component `j` is chosen with
+    /// probability proportional to `w_j exp(-kappa (1 - cos(heading - mu_j)))`, the
+    /// posterior of the component given a heading observed with a von Mises likelihood
+    /// of concentration `kappa`; the direction is then drawn from that component as in
+    /// [`direction_at`](Self::direction_at) (one uniform and one normal draw, unwrapped).
+    /// `kappa = 0` chooses by weight alone, like `direction_at` (up to the rounding of the
+    /// cumulative weights).
+    ///
+    /// ```
+    /// use cliff::map::{CliffMap, Component, Location};
+    /// use glam::DVec2;
+    /// use rand::SeedableRng;
+    /// // one location, two equal flows: east and west
+    /// let c = |theta: f64| Component { theta, rho: 1.0, cov: [0.01, 0.0, 0.0, 0.01], weight: 0.5 };
+    /// let loc = Location { position: DVec2::ZERO, components: vec![c(0.0), c(std::f64::consts::PI)], motion_ratio: 1.0, observation_ratio: 1.0 };
+    /// let map = CliffMap::new(vec![loc]).unwrap();
+    /// let mut rng = rand_xoshiro::Xoshiro256PlusPlus::seed_from_u64(1);
+    /// // a walker heading east keeps to the eastward flow
+    /// let east = (0..1000).filter(|_| map.direction_following(0, 1.0, 0.0, 4.0, &mut rng).cos() > 0.0).count();
+    /// assert!(east > 990);
+    /// ```
+    #[inline]
+    pub fn direction_following<R: Rng + ?Sized>(
+        &self,
+        index: usize,
+        ux: f64,
+        uy: f64,
+        kappa: f64,
+        rng: &mut R,
+    ) -> f64 {
+        use crate::predict::fastmath::exp_neg;
+        let a = self.comp_start[index] as usize;
+        let b = self.comp_start[index + 1] as usize;
+        let follow = &self.follow[a..b];
+        let mut cum = [0.0f64; MAX_COMPONENTS];
+        let mut total = 0.0;
+        for (j, c) in follow.iter().enumerate() {
+            let cos = ux * c.cos_mu + uy * c.sin_mu;
+            total += c.weight * exp_neg(-kappa * (1.0 - cos));
+            cum[j] = total;
+        }
+        let u: f64 = rng.random::<f64>() * total;
+        // the number of cumulative weights at or below u (padding repeats the last)
+        let i = cum[..follow.len()]
+            .iter()
+            .map(|&c| (u >= c) as usize)
+            .sum::<usize>()
+            .min(follow.len() - 1);
+        let c = &self.table[a + i];
+        let z: f64 = StandardNormal.sample(rng);
+        c.mu + c.sigma * z
     }
 
     /// A velocity draw at location `index`: a component by weight, a direction from its
