@@ -321,7 +321,10 @@ impl<'a> Chunk<'a> {
             positions: &mut *self.positions,
             lens: &mut *self.lens,
         };
-        match self.rollout.predict_agents(self.map, self.states, out) {
+        match self
+            .rollout
+            .predict_agents(self.map, self.states, out, None)
+        {
             Ok(()) => *self.next += self.states.len(),
             Err(e) => {
                 error!("prediction failed: {e}");

@@ -40,17 +40,8 @@
 //! assert!(batch.scores().iter().all(|s| *s <= batch.score(0, best).unwrap()));
 //! ```
 
-use std::f64::consts::PI;
-
-use glam::DVec2;
-use rand::SeedableRng;
-use rand_xoshiro::Xoshiro256PlusPlus;
-
-use super::{
-    BatchMut, HeadingRule, MAX_LANES, Method, Params, PredictError, TrajectoryBatch, check_call,
-    fastmath, predict_into, turn4,
-};
-use crate::map::{CliffMap, Lookup, wrap_2pi};
+use super::{BatchMut, Params, PredictError, Rollout, TrajectoryBatch};
+use crate::map::CliffMap;
 use crate::motion::State;
 
 /// Log-density of a step without a map location in a sample's score: a uniform
@@ -92,7 +83,8 @@ impl Options {
         Ok(())
     }
 
-    fn coast_steps(&self, dt: f64) -> u32 {
+    /// Positions a sample may coast off the map at time step `dt`.
+    pub(super) fn coast_steps(&self, dt: f64) -> u32 {
         (self.coast / dt + 1e-9).floor().min(u32::MAX as f64) as u32
     }
 }
@@ -114,9 +106,9 @@ pub fn predict_with(
     predict_into_with(map, agents, params, options, batch, scores)
 }
 
-/// [`predict_into`] with [`Options`]; `scores` holds one score per sample
-/// (`agents x k`) when [`Options::scores`] is set, and is not touched otherwise (pass
-/// an empty slice).
+/// [`predict_into`](super::predict_into) with [`Options`]; `scores` holds one score per
+/// sample (`agents x k`) when [`Options::scores`] is set, and is not touched otherwise
+/// (pass an empty slice).
 pub fn predict_into_with(
     map: &CliffMap,
     agents: &[State],
@@ -125,319 +117,23 @@ pub fn predict_into_with(
     out: BatchMut<'_>,
     scores: &mut [f32],
 ) -> Result<(), PredictError> {
-    options.validate()?;
-    if options.is_paper() {
-        return predict_into(map, agents, params, out);
-    }
-    let steps = check_call(agents, params, &out)?;
-    if options.scores && scores.len() != out.lens.len() {
-        return Err(PredictError::Param {
-            name: "scores",
-            why: format!(
-                "the score buffer holds {} values, the call has {} samples",
-                scores.len(),
-                out.lens.len()
-            ),
-        });
-    }
-    let mut rng = Xoshiro256PlusPlus::seed_from_u64(params.seed);
-    if steps == 0 {
-        out.lens.fill(0);
-        if options.scores {
-            scores.fill(0.0);
-        }
-        return Ok(());
-    }
-    match map.lookup(params.radius) {
-        Lookup::Table(t) => roll_all(map, agents, params, options, &mut rng, out, scores, |p| {
-            t.best_near(p)
-        }),
-        Lookup::Grid(m, r) => roll_all(map, agents, params, options, &mut rng, out, scores, |p| {
-            m.best_near(p, r)
-        }),
-    }
-    Ok(())
-}
-
-#[allow(clippy::too_many_arguments)]
-fn roll_all(
-    map: &CliffMap,
-    agents: &[State],
-    params: &Params,
-    options: &Options,
-    rng: &mut Xoshiro256PlusPlus,
-    out: BatchMut<'_>,
-    scores: &mut [f32],
-    near: impl Fn(DVec2) -> Option<usize>,
-) {
-    let steps = params.steps();
-    let k = params.k;
-    for (a, state) in agents.iter().enumerate() {
-        let positions = &mut out.positions[a * k * steps..(a + 1) * k * steps];
-        let lens = &mut out.lens[a * k..(a + 1) * k];
-        let mut scores = options.scores.then(|| &mut scores[a * k..(a + 1) * k]);
-        match params.method {
-            Method::Cvm => {
-                for (s, (track, len)) in positions.chunks_exact_mut(steps).zip(lens).enumerate() {
-                    let v = roll_cvm_scored(map, &near, state, params.dt, track);
-                    *len = steps as u32;
-                    if let Some(sc) = scores.as_deref_mut() {
-                        sc[s] = v as f32;
-                    }
-                }
-            }
-            Method::Cliff => {
-                for (g, (tracks, lens)) in positions
-                    .chunks_mut(MAX_LANES * steps)
-                    .zip(lens.chunks_mut(MAX_LANES))
-                    .enumerate()
-                {
-                    let mut group_scores = [0.0f64; MAX_LANES];
-                    let n = lens.len();
-                    match n {
-                        1..=4 => roll_lanes::<4>(
-                            map,
-                            &near,
-                            state,
-                            params,
-                            options,
-                            rng,
-                            tracks,
-                            lens,
-                            &mut group_scores,
-                        ),
-                        5..=8 => roll_lanes::<8>(
-                            map,
-                            &near,
-                            state,
-                            params,
-                            options,
-                            rng,
-                            tracks,
-                            lens,
-                            &mut group_scores,
-                        ),
-                        9..=12 => roll_lanes::<12>(
-                            map,
-                            &near,
-                            state,
-                            params,
-                            options,
-                            rng,
-                            tracks,
-                            lens,
-                            &mut group_scores,
-                        ),
-                        13..=16 => roll_lanes::<16>(
-                            map,
-                            &near,
-                            state,
-                            params,
-                            options,
-                            rng,
-                            tracks,
-                            lens,
-                            &mut group_scores,
-                        ),
-                        _ => roll_lanes::<MAX_LANES>(
-                            map,
-                            &near,
-                            state,
-                            params,
-                            options,
-                            rng,
-                            tracks,
-                            lens,
-                            &mut group_scores,
-                        ),
-                    }
-                    if let Some(sc) = scores.as_deref_mut() {
-                        for l in 0..n {
-                            sc[g * MAX_LANES + l] = group_scores[l] as f32;
-                        }
-                    }
-                }
-            }
-        }
-    }
-}
-
-/// Constant velocity, scored: each step at the location near the position it starts
-/// from (or [`NO_LOCATION_LOG_DENSITY`]).
-fn roll_cvm_scored(
-    map: &CliffMap,
-    near: &impl Fn(DVec2) -> Option<usize>,
-    state: &State,
-    dt: f64,
-    track: &mut [super::Point],
-) -> f64 {
-    let step = DVec2::from_angle(state.heading) * (state.speed * dt);
-    let (uy, ux) = state.heading.sin_cos();
-    let (ux, uy) = (ux as f32, uy as f32);
-    let mut p = state.position;
-    let mut score = 0.0;
-    for out in track.iter_mut() {
-        score += match near(p) {
-            Some(i) => map.step_log_density(i, ux, uy, state.speed),
-            None => NO_LOCATION_LOG_DENSITY,
-        };
-        p += step;
-        *out = [p.x as f32, p.y as f32];
-    }
-    score
-}
-
-/// Up to `N` samples of one agent with the options; the arithmetic of a sample that
-/// neither coasts nor changes speed is that of `roll_cliff_lanes` (same draws, same
-/// bytes).
-#[allow(clippy::too_many_arguments)]
-#[inline(never)]
-fn roll_lanes<const N: usize>(
-    map: &CliffMap,
-    near: &impl Fn(DVec2) -> Option<usize>,
-    state: &State,
-    params: &Params,
-    options: &Options,
-    rng: &mut Xoshiro256PlusPlus,
-    tracks: &mut [super::Point],
-    lens: &mut [u32],
-    scores: &mut [f64; MAX_LANES],
-) {
-    let n = lens.len();
-    debug_assert!(n <= N && N.is_multiple_of(4) && N <= MAX_LANES);
-    let steps = tracks.len() / n;
-    let dt = params.dt;
-    let with_speed = options.speed_beta > 0.0;
-    let coast_steps = options.coast_steps(dt);
-    let theta0 = wrap_2pi(state.heading);
-    let (s0, c0) = fastmath::sin_cos(theta0);
-    let start = near(state.position);
-    let mut px = [state.position.x; N];
-    let mut py = [state.position.y; N];
-    let mut ux = [c0 as f32; N];
-    let mut uy = [s0 as f32; N];
-    let mut theta = [theta0; N];
-    let mut speed = [state.speed; N];
-    let mut loc = [start.unwrap_or(0); N];
-    // alive: the sample goes on; on_map: it has a location to sample from
-    let mut alive = [false; N];
-    let mut on_map = [false; N];
-    let mut coast_left = [coast_steps; N];
-    for l in 0..n {
-        on_map[l] = start.is_some();
-        alive[l] = start.is_some() || coast_steps > 0;
-    }
-    let mut ts = [0.0f64; N];
-    let mut rs = [0.0f64; N];
-    let mut step_score = [0.0f64; N];
-    let mut score = [0.0f64; N];
-    lens.fill(0);
-    for j in 0..steps {
-        // Phase 1: draw at each sampling lane's location (in lane order).
-        let mut drawing = [false; N];
-        for l in 0..N {
-            if alive[l] && on_map[l] {
-                drawing[l] = true;
-                if with_speed {
-                    (ts[l], rs[l]) = map.velocity_at(loc[l], rng);
-                } else {
-                    ts[l] = map.direction_at(loc[l]).sample_unwrapped(rng);
-                }
-            }
-        }
-        // Phase 2: turn (the lanes that drew), change speed, score, move.
-        let (old_ux, old_uy, old_theta) = (ux, uy, theta);
-        match params.heading {
-            HeadingRule::CircularMean => {
-                let ts32: [f32; N] = std::array::from_fn(|l| ts[l] as f32);
-                let beta = params.beta as f32;
-                let (ts4, _) = ts32.as_chunks::<4>();
-                let (ux4, _) = ux.as_chunks_mut::<4>();
-                let (uy4, _) = uy.as_chunks_mut::<4>();
-                for ((t, hx), hy) in ts4.iter().zip(ux4).zip(uy4) {
-                    turn4(t, hx, hy, beta);
-                }
-            }
-            HeadingRule::Paper => {
-                for l in 0..N {
-                    let mut signed = wrap_2pi(ts[l]) - theta[l];
-                    if signed > PI {
-                        signed -= 2.0 * PI;
-                    } else if signed < -PI {
-                        signed += 2.0 * PI;
-                    }
-                    let lambda = fastmath::exp_neg(-params.beta * signed * signed);
-                    theta[l] = wrap_2pi(theta[l] + lambda * signed);
-                    let (sin, cos) = fastmath::sin_cos(theta[l]);
-                    ux[l] = cos as f32;
-                    uy[l] = sin as f32;
-                }
-            }
-        }
-        for l in 0..N {
-            if !drawing[l] {
-                // coasting: heading and speed stay
-                ux[l] = old_ux[l];
-                uy[l] = old_uy[l];
-                theta[l] = old_theta[l];
-                step_score[l] = NO_LOCATION_LOG_DENSITY;
-                continue;
-            }
-            if with_speed {
-                let d = rs[l] - speed[l];
-                let lambda = (-options.speed_beta * d * d).exp();
-                speed[l] += lambda * d;
-            }
-            if options.scores {
-                step_score[l] = map.step_log_density(loc[l], ux[l], uy[l], speed[l]);
-            }
-        }
-        for l in 0..N {
-            let dist = speed[l] * dt;
-            px[l] += ux[l] as f64 * dist;
-            py[l] += uy[l] as f64 * dist;
-        }
-        // Phase 3: look up the new positions; off the map a lane coasts or ends.
-        let mut any = false;
-        for l in 0..N {
-            if !alive[l] {
-                continue;
-            }
-            match near(DVec2::new(px[l], py[l])) {
-                Some(next) => {
-                    loc[l] = next;
-                    on_map[l] = true;
-                    coast_left[l] = coast_steps;
-                }
-                None if coast_left[l] > 0 => {
-                    coast_left[l] -= 1;
-                    on_map[l] = false;
-                }
-                None => {
-                    alive[l] = false;
-                    continue;
-                }
-            }
-            tracks[l * steps + j] = [px[l] as f32, py[l] as f32];
-            lens[l] = j as u32 + 1;
-            score[l] += step_score[l];
-            any = true;
-        }
-        if !any {
-            break;
-        }
-    }
-    for (l, &len) in lens.iter().enumerate() {
-        tracks[l * steps + len as usize..(l + 1) * steps].fill([f32::NAN; 2]);
-        scores[l] = score[l] + (steps - len as usize) as f64 * NO_LOCATION_LOG_DENSITY;
-    }
+    Rollout::new(params)?
+        .with_options(*options)?
+        .predict_agents(map, agents, out, options.scores.then_some(scores))
 }
 
 #[cfg(test)]
 mod tests {
+    use std::f64::consts::PI;
+
+    use glam::DVec2;
+    use rand::SeedableRng;
+    use rand_xoshiro::Xoshiro256PlusPlus;
+
     use super::*;
     use crate::map::{Component, Location};
     use crate::predict::predict;
+    use crate::predict::{HeadingRule, Method};
 
     fn walker(x: f64, y: f64, heading: f64, speed: f64) -> State {
         State {
