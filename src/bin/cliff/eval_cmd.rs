@@ -69,6 +69,21 @@ pub struct PredictionArgs {
     /// the paper); 0 stops it there (the paper).
     #[arg(long, default_value_t = 0.0, value_parser = non_negative)]
     pub coast: f64,
+    /// Follow (beyond the paper): choose the map component at each step by its weight
+    /// times `exp(-follow (1 - cos(heading - its direction)))`, so that a walker keeps
+    /// to the flows going its way; 0 chooses by weight alone (the paper).
+    #[arg(long, default_value_t = 0.0, value_parser = non_negative)]
+    pub follow: f64,
+    /// Candidates (beyond the paper): draw this many times `k` samples per person and
+    /// keep the `k` that reach furthest, then the highest-scored; costs as many times
+    /// the work. 1 draws `k` (the paper).
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=16))]
+    pub candidates: u32,
+    /// Speed prior (beyond the paper): start from the speed the map's speed prior
+    /// (learned by `cliff map build`) gives for the observed one; maps without a prior
+    /// keep the observed speed.
+    #[arg(long)]
+    pub speed_prior: bool,
 }
 
 fn non_negative(s: &str) -> Result<f64, String> {
@@ -114,6 +129,9 @@ impl PredictionArgs {
             speed_beta: self.speed_beta,
             coast: self.coast,
             scores,
+            follow: self.follow,
+            candidates: self.candidates,
+            speed_prior: self.speed_prior,
         }
     }
 
