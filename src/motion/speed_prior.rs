@@ -117,7 +117,7 @@ impl SpeedPrior {
         }
         let nf = n as f64;
         let var = sxx / nf - (sx / nf).powi(2);
-        if !(var > 1e-6) {
+        if var.is_nan() || var <= 1e-6 {
             return None;
         }
         let slope = (sxy / nf - sx / nf * sy / nf) / var;
