@@ -78,6 +78,7 @@ fn bench(c: &mut Criterion) {
         speed_beta: 1.0,
         coast: 4.0,
         scores: true,
+        ..Options::default()
     };
     let coast = Options {
         coast: 4.0,
