@@ -406,3 +406,79 @@ fn full_horizon_only_keeps_the_same_people_at_every_horizon() {
     assert!(same.iter().all(|p| *p == people[49]), "{same:?}");
     let _ = std::fs::remove_dir_all(&out);
 }
+
+#[test]
+fn improved_is_cliff_with_the_preset_in_eval_and_predict() {
+    let eval = |name: &str, extra: &[&str]| {
+        let out = tmp(name);
+        let mut args = vec![
+            "eval",
+            "--map",
+            "",
+            "--tracks",
+            "",
+            "--format",
+            "thor",
+            "--protocol",
+            "reference",
+            "--radius",
+            "0.7071",
+            "--seeds",
+            "2",
+            "--out",
+            out.to_str().unwrap(),
+        ];
+        let (map, tracks) = (data("thor1/cliffmap.csv"), data("thor1/exp-1-run-2.csv"));
+        args[2] = &map;
+        args[4] = &tracks;
+        args.extend_from_slice(extra);
+        let o = cliff(&args);
+        assert!(o.status.success(), "{}", text(&o).1);
+        std::fs::read_to_string(out.join("summary.csv")).unwrap()
+    };
+    let improved = eval(
+        "improved",
+        &["--methods", "cliff,improved", "--beta", "0.5"],
+    );
+    let beta2 = eval("beta2", &["--methods", "cliff", "--beta", "2"]);
+    // the improved rows are those of CLiFF-LHMP with the preset's beta, whatever --beta says
+    let rows = |csv: &str, method: &str| -> Vec<String> {
+        csv.lines()
+            .filter_map(|l| l.strip_prefix(&format!("{method},")).map(String::from))
+            .collect()
+    };
+    assert_eq!(rows(&improved, "improved").len(), 30);
+    assert_eq!(rows(&improved, "improved"), rows(&beta2, "cliff"));
+    assert_ne!(rows(&improved, "cliff"), rows(&beta2, "cliff"));
+    let predict = |method: &str, beta: &str| {
+        let o = cliff(&[
+            "predict",
+            "--map",
+            &data("thor1/cliffmap.csv"),
+            "--tracks",
+            &data("thor1/exp-1-run-2.csv"),
+            "--protocol",
+            "reference",
+            "--person",
+            "12007",
+            "--k",
+            "5",
+            "--method",
+            method,
+            "--beta",
+            beta,
+        ]);
+        assert!(o.status.success(), "{}", text(&o).1);
+        text(&o).0
+    };
+    assert_eq!(predict("improved", "1"), predict("cliff", "2"));
+    let o = cliff(&[
+        "predict", "--tracks", "x.csv", "--person", "1", "--method", "best",
+    ]);
+    assert!(!o.status.success());
+    assert!(
+        text(&o).1.contains("expected cliff, cvm or improved"),
+        "{}",
+        text(&o).1
+    );
+}

@@ -54,7 +54,7 @@ typedef struct CliffRequest CliffRequest;
 
 // Prediction parameters (see `cliff::predict::Params`).
 typedef struct CliffParams {
-  // 0: CLiFF-LHMP, 1: constant velocity.
+  // 0: CLiFF-LHMP, 1: constant velocity, 2: the `improved` preset of CLiFF-LHMP.
   uint32_t method;
   // 0: circular mean (reference), 1: the paper's rule.
   uint32_t heading_rule;

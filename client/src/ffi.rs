@@ -25,7 +25,7 @@ use std::time::Duration;
 
 use cliff::predict::{HeadingRule, Method, Params};
 
-use crate::protocol::{HEADING_PAPER, METHOD_CVM, Observation, Status};
+use crate::protocol::{HEADING_PAPER, METHOD_CVM, METHOD_IMPROVED, Observation, Status};
 use crate::{Answer, Client, ClientOptions, Error, RawResponse, Request, WaitMode, split_payload};
 
 /// Success.
@@ -58,7 +58,7 @@ pub const CLIFF_WAIT_BLOCK: u32 = 2;
 #[repr(C)]
 #[derive(Debug, Clone, Copy)]
 pub struct CliffParams {
-    /// 0: CLiFF-LHMP, 1: constant velocity.
+    /// 0: CLiFF-LHMP, 1: constant velocity, 2: the `improved` preset of CLiFF-LHMP.
     pub method: u32,
     /// 0: circular mean (reference), 1: the paper's rule.
     pub heading_rule: u32,
@@ -154,10 +154,10 @@ unsafe fn str_arg<'a>(p: *const c_char, what: &str) -> Result<&'a str, i32> {
 
 fn params_from(p: &CliffParams) -> Params {
     Params {
-        method: if p.method == METHOD_CVM {
-            Method::Cvm
-        } else {
-            Method::Cliff
+        method: match p.method {
+            METHOD_CVM => Method::Cvm,
+            METHOD_IMPROVED => Method::Improved,
+            _ => Method::Cliff,
         },
         heading: if p.heading_rule == HEADING_PAPER {
             HeadingRule::Paper

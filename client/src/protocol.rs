@@ -48,6 +48,9 @@ pub const KIND_RELOAD: u32 = 1;
 pub const METHOD_CLIFF: u32 = 0;
 /// [`RequestHeader::method`] for the constant-velocity model.
 pub const METHOD_CVM: u32 = 1;
+/// [`RequestHeader::method`] for the `improved` preset of CLiFF-LHMP
+/// (`cliff::predict::Method::Improved`).
+pub const METHOD_IMPROVED: u32 = 2;
 
 /// [`RequestHeader::heading_rule`]: the reference implementation's circular mean.
 pub const HEADING_CIRCULAR_MEAN: u32 = 0;
@@ -75,7 +78,7 @@ pub struct RequestHeader {
     pub listener_id: [u64; 2],
     /// Map name, UTF-8, NUL-padded.
     pub map: [u8; MAP_NAME_BYTES],
-    /// [`METHOD_CLIFF`] or [`METHOD_CVM`].
+    /// [`METHOD_CLIFF`], [`METHOD_CVM`] or [`METHOD_IMPROVED`].
     pub method: u32,
     /// [`HEADING_CIRCULAR_MEAN`] or [`HEADING_PAPER`].
     pub heading_rule: u32,
@@ -113,6 +116,7 @@ impl RequestHeader {
             method: match params.method {
                 Method::Cliff => METHOD_CLIFF,
                 Method::Cvm => METHOD_CVM,
+                Method::Improved => METHOD_IMPROVED,
             },
             heading_rule: match params.heading {
                 HeadingRule::CircularMean => HEADING_CIRCULAR_MEAN,
@@ -287,7 +291,7 @@ pub enum Status {
     BadVersion = 1,
     /// No map of that name is loaded.
     UnknownMap = 2,
-    /// The method code is not one of [`METHOD_CLIFF`], [`METHOD_CVM`] (or the heading rule
+    /// The method code is not one of [`METHOD_CLIFF`], [`METHOD_CVM`], [`METHOD_IMPROVED`] (or the heading rule
     /// code is unknown).
     UnknownMethod = 3,
     /// A parameter or a history value is NaN or infinite.
@@ -660,6 +664,7 @@ pub fn decode_request(
     let method = match h.method {
         METHOD_CLIFF => Method::Cliff,
         METHOD_CVM => Method::Cvm,
+        METHOD_IMPROVED => Method::Improved,
         _ => return Err(Rejection::new(UnknownMethod, Field::Method)),
     };
     let heading = match h.heading_rule {
@@ -940,6 +945,16 @@ mod tests {
         assert_eq!(st[1].position, DVec2::new(-9.0, 0.5));
         assert!((st[2].speed - 1.5).abs() < 1e-12);
         assert!((st[2].heading - std::f64::consts::FRAC_PI_2).abs() < 1e-12);
+        // every method's code decodes to the method
+        for method in [Method::Cliff, Method::Cvm, Method::Improved] {
+            let mut h = RequestHeader::from_params(&Params {
+                method,
+                ..Params::default()
+            });
+            h.agents = 3;
+            let p = decode_request(&h, &rows, &Limits::default(), &mut s).unwrap();
+            assert_eq!(p.method, method);
+        }
     }
 
     #[test]

@@ -82,7 +82,7 @@ impl Evaluation {
 ///     format: "thor" or "atc".
 ///     protocol: "reference" (the published code's row-based rules, for parity) or
 ///         "seconds" (the same rules stated in time).
-///     methods: list of "cliff" and/or "cvm" (None: both).
+///     methods: list of "cliff", "cvm" and/or "improved" (None: cliff and cvm).
 ///
 /// Example (the README's THÖR1 parity run):
 ///     >>> r = cliff_lhmp.evaluate(cliff_lhmp.Map.load("../shared/data/thor1/cliffmap.csv"),

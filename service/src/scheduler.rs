@@ -21,7 +21,7 @@ use std::sync::Arc;
 
 use cliff::map::{CliffMap, Lookup};
 use cliff::motion::State;
-use cliff::predict::{BatchMut, Method, Params, Point, Rollout, Tables};
+use cliff::predict::{BatchMut, Params, Point, Rollout, Tables};
 use cliff_client::protocol::{DecodeScratch, Limits, RequestHeader};
 use rayon::prelude::*;
 use tracing::error;
@@ -173,7 +173,7 @@ impl<O: Output> Scheduler<O> {
         let per_agent = params.k * params.steps();
         // Grid-scan lookups cost more per position than a table's.
         let weight = match (params.method, map.cached_lookup(params.radius)) {
-            (Method::Cliff, l @ Lookup::Grid(..)) => 1 + l.max_tests() / GRID_TESTS_PER_UNIT,
+            (m, l @ Lookup::Grid(..)) if m.samples_map() => 1 + l.max_tests() / GRID_TESTS_PER_UNIT,
             _ => 1,
         };
         let chunk = (self.chunk_positions / per_agent.saturating_mul(weight).max(1)).max(1);

@@ -4,7 +4,7 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
-use cliff::predict::{Method, Params};
+use cliff::predict::Params;
 use cliff_client::protocol::{
     self, Field, KIND_RELOAD, Limits, Observation, PROTOCOL_VERSION, Rejection, RequestHeader,
     ResponseHeader, Status,
@@ -460,7 +460,7 @@ impl Daemon {
             let mut words = remote.buffers.pop().unwrap_or_default();
             words.clear();
             words.resize(protocol::payload_words(agents, params.k, params.steps()), 0);
-            if params.method == Method::Cliff {
+            if params.method.samples_map() {
                 self.registry.want_table(map, params.radius);
             }
             let map = Arc::clone(&self.registry.entries()[map].map);
@@ -508,7 +508,7 @@ impl Daemon {
                 return self.reject(&req, &h, internal());
             }
         };
-        if params.method == Method::Cliff {
+        if params.method.samples_map() {
             self.registry.want_table(map, params.radius);
         }
         let map = Arc::clone(&self.registry.entries()[map].map);
@@ -682,7 +682,7 @@ fn decode(
     };
     let params = protocol::decode_request(h, rows, limits, scratch)?;
     let entry = &registry.entries()[map];
-    if params.method == Method::Cliff && params.radius > entry.max_radius {
+    if params.method.samples_map() && params.radius > entry.max_radius {
         return Err(Rejection {
             status: Status::RadiusTooLarge,
             field: Field::Radius,

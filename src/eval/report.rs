@@ -128,7 +128,7 @@ struct Worker {
 fn seeds_for(method: Method, seeds: usize) -> usize {
     match method {
         Method::Cvm => 1,
-        Method::Cliff => seeds.max(1),
+        Method::Cliff | Method::Improved => seeds.max(1),
     }
 }
 

@@ -27,6 +27,7 @@
 mod batch;
 pub(crate) mod fastmath;
 mod options;
+pub mod preset;
 mod rollout;
 
 use std::fmt;
@@ -47,15 +48,28 @@ pub enum Method {
     Cliff,
     /// Constant velocity: never turns, never stops.
     Cvm,
+    /// CLiFF-LHMP with the settings of the [`preset::IMPROVED`] preset (beyond the
+    /// paper: a heading kernel of beta 2 and a score per sample); its content is set by
+    /// the project's held-out experiments. Resolved by [`preset::resolve`].
+    Improved,
 }
 
 impl Method {
-    /// The method's name on the command line and in reports (`cliff`, `cvm`).
+    /// The method's name on the command line and in reports (`cliff`, `cvm`,
+    /// `improved`).
     pub fn name(self) -> &'static str {
         match self {
             Method::Cliff => "cliff",
             Method::Cvm => "cvm",
+            Method::Improved => "improved",
         }
+    }
+
+    /// True for the methods that sample from the map (every method but constant
+    /// velocity): they need the map's neighbour table for the sampling radius, and
+    /// their samples differ from seed to seed.
+    pub fn samples_map(self) -> bool {
+        self != Method::Cvm
     }
 }
 
@@ -71,7 +85,10 @@ impl FromStr for Method {
         match s.trim().to_ascii_lowercase().as_str() {
             "cliff" | "cliff-lhmp" | "lhmp" | "mod" => Ok(Method::Cliff),
             "cvm" | "cv" | "constant-velocity" => Ok(Method::Cvm),
-            other => Err(format!("unknown method '{other}' (expected cliff or cvm)")),
+            "improved" => Ok(Method::Improved),
+            other => Err(format!(
+                "unknown method '{other}' (expected cliff, cvm or improved)"
+            )),
         }
     }
 }

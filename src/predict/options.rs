@@ -143,8 +143,8 @@ impl Options {
     }
 }
 
-/// [`predict`](super::predict) with [`Options`]: scores, when asked, go to
-/// [`TrajectoryBatch::scores`].
+/// [`predict`](super::predict) with [`Options`]: scores, when asked (by the options or a
+/// preset method), go to [`TrajectoryBatch::scores`].
 pub fn predict_with(
     map: &CliffMap,
     agents: &[State],
@@ -152,17 +152,19 @@ pub fn predict_with(
     options: &Options,
     out: &mut TrajectoryBatch,
 ) -> Result<(), PredictError> {
-    params.validate()?;
-    options.validate()?;
+    let mut rollout = Rollout::new(params)?.with_options(*options)?;
+    let scored = rollout.options().scores;
     out.try_reshape(agents.len(), params.k, params.steps())?;
-    out.try_size_scores(options.scores)?;
+    out.try_size_scores(scored)?;
     let (batch, scores) = out.parts_mut();
-    predict_into_with(map, agents, params, options, batch, scores)
+    rollout.predict_agents(map, agents, batch, scored.then_some(scores))
 }
 
 /// [`predict_into`](super::predict_into) with [`Options`]; `scores` holds one score per
-/// sample (`agents x k`) when [`Options::scores`] is set, and is not touched otherwise
-/// (pass an empty slice).
+/// sample (`agents x k`), or is empty for none. Scores are computed when the options
+/// ask for them ([`Options::scores`], or a preset method's) and `scores` is not empty;
+/// a non-empty `scores` without scores asked for is filled with NaN. [`Options::scores`]
+/// with an empty `scores` is an error.
 pub fn predict_into_with(
     map: &CliffMap,
     agents: &[State],
@@ -171,9 +173,10 @@ pub fn predict_into_with(
     out: BatchMut<'_>,
     scores: &mut [f32],
 ) -> Result<(), PredictError> {
+    let buffer = (options.scores || !scores.is_empty()).then_some(scores);
     Rollout::new(params)?
         .with_options(*options)?
-        .predict_agents(map, agents, out, options.scores.then_some(scores))
+        .predict_agents(map, agents, out, buffer)
 }
 
 #[cfg(test)]

@@ -15,7 +15,7 @@ use rand::SeedableRng;
 use rand_xoshiro::Xoshiro256PlusPlus;
 
 use super::options::{NO_LOCATION_LOG_DENSITY, Options};
-use super::{BatchMut, HeadingRule, Method, Params, Point, PredictError, fastmath};
+use super::{BatchMut, HeadingRule, Method, Params, Point, PredictError, fastmath, preset};
 use crate::map::{CliffMap, Lookup, wrap_2pi};
 use crate::motion::{SpeedPrior, State};
 
@@ -71,6 +71,9 @@ pub enum Tables {
 /// ```
 #[derive(Debug, Clone)]
 pub struct Rollout {
+    /// The parameters as given (the method may be a preset).
+    asked: Params,
+    /// The parameters and options resolved ([`preset::resolve`]).
     params: Params,
     options: Options,
     tables: Tables,
@@ -89,25 +92,28 @@ struct Candidates {
 }
 
 impl Rollout {
-    /// A rollout of `params` (checked) with the paper's method ([`Options::default`]),
-    /// whose generator is seeded from `params.seed`.
+    /// A rollout of `params` (checked) with [`Options::default`] (the paper's method,
+    /// unless `params.method` is a preset), whose generator is seeded from
+    /// `params.seed`.
     pub fn new(params: &Params) -> Result<Self, PredictError> {
         params.validate()?;
+        let (resolved, options) = preset::resolve(params, &Options::default());
         Ok(Self {
-            params: *params,
-            options: Options::default(),
+            asked: *params,
+            params: resolved,
+            options,
             tables: Tables::Build,
             rng: Xoshiro256PlusPlus::seed_from_u64(params.seed),
             scratch: Candidates::default(),
         })
     }
 
-    /// The same rollout with `options` (checked). Scores are computed only when
-    /// [`Options::scores`] is set and [`predict_agents`](Self::predict_agents) is given a
-    /// score buffer.
+    /// The same rollout with `options` (checked; a preset method replaces them with its
+    /// own, see [`preset::resolve`]). Scores are computed only when the options ask for
+    /// them and [`predict_agents`](Self::predict_agents) is given a score buffer.
     pub fn with_options(mut self, options: Options) -> Result<Self, PredictError> {
         options.validate()?;
-        self.options = options;
+        (self.params, self.options) = preset::resolve(&self.asked, &options);
         Ok(self)
     }
 
@@ -117,12 +123,13 @@ impl Rollout {
         self
     }
 
-    /// The parameters.
+    /// The parameters it predicts with (a preset method resolved: never
+    /// [`Method::Improved`]).
     pub fn params(&self) -> &Params {
         &self.params
     }
 
-    /// The options.
+    /// The options it predicts with (a preset method's, if the method is one).
     pub fn options(&self) -> &Options {
         &self.options
     }
@@ -131,7 +138,8 @@ impl Rollout {
     /// [`predict_into`](super::predict_into) needs for these agents alone.
     ///
     /// `scores`, when given, holds one value per sample (`agents.len() x k`): the
-    /// samples' scores when [`Options::scores`] is set, else NaN. Scores draw nothing:
+    /// samples' scores when the options ask for scores ([`Options::scores`], or a
+    /// preset's), else NaN. Scores draw nothing:
     /// with or without them, the samples are the same.
     pub fn predict_agents(
         &mut self,

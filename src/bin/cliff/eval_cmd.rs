@@ -169,7 +169,8 @@ pub struct EvalArgs {
     /// Seeds per stochastic method; the summary holds means and standard deviations over them.
     #[arg(long, default_value_t = 1)]
     pub seeds: usize,
-    /// Methods to compare on the same people, comma-separated: cliff, cvm.
+    /// Methods to compare on the same people, comma-separated: cliff, cvm, improved
+    /// (CLiFF-LHMP with the project's preset: its own beta and options).
     #[arg(long, value_delimiter = ',', default_value = "cliff,cvm")]
     pub methods: Vec<Method>,
     /// Output folder for summary.csv and per_person.csv.
@@ -196,7 +197,8 @@ pub struct PredictArgs {
     pub person: u64,
     #[command(flatten)]
     pub prediction: PredictionArgs,
-    /// Method.
+    /// Method: cliff, cvm or improved (CLiFF-LHMP with the project's preset: its own
+    /// beta and options).
     #[arg(long, default_value = "cliff")]
     pub method: Method,
     /// Random seed.
