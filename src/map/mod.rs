@@ -27,6 +27,7 @@ mod neighbours;
 pub mod score;
 mod snapshot;
 mod tables;
+pub mod timeofday;
 pub mod update;
 
 use std::f64::consts::TAU;
@@ -47,9 +48,13 @@ pub use grid::GridIndex;
 pub use neighbours::NeighbourTable;
 pub use score::{ScoreParams, ScoreReport, score};
 pub use snapshot::{
-    SNAPSHOT_MAGIC, SNAPSHOT_VERSION, read_snapshot, read_snapshot_bytes, write_snapshot,
+    SET_SNAPSHOT_VERSION, SNAPSHOT_MAGIC, SNAPSHOT_VERSION, read_snapshot, read_snapshot_bytes,
+    write_snapshot,
 };
 pub use tables::{DEFAULT_TABLE_BUDGET, TableCache, TableError, TableStats};
+pub use timeofday::{
+    BuiltSet, MapAt, MapSet, SetParts, SliceParams, SliceSummary, Smoothing, build_map_set,
+};
 pub use update::{OnlineMap, UpdateParams};
 
 /// Largest |x| and |y| (m) of a map location: maps are of buildings and sites, and this
@@ -171,6 +176,9 @@ pub enum MapError {
     /// A speed prior's values are unusable.
     #[error("{0}")]
     SpeedPrior(String),
+    /// A time-of-day map set or its options are inconsistent.
+    #[error("time-of-day maps: {0}")]
+    TimeOfDay(String),
     /// The file's extension names no known map format.
     #[error("{0}: unknown map format (use .csv for the published format or .cliff for a snapshot)")]
     UnknownFormat(String),
@@ -565,7 +573,8 @@ impl CliffMap {
         })
     }
 
-    /// Read a map from a file, by extension: `.csv` (published format) or `.cliff` (snapshot).
+    /// Read a map from a file, by extension: `.csv` (published format) or `.cliff` (snapshot;
+    /// a time-of-day set gives its all-day map, see [`MapSet::load`] for the whole set).
     pub fn load(path: impl AsRef<Path>) -> Result<Self, MapError> {
         let path = path.as_ref();
         match MapFormat::from_path(path)? {
