@@ -7,9 +7,12 @@
 //! Version 1 ([`SNAPSHOT_VERSION`]) holds one map: its grid step and locations.
 //! Version 2 ([`SET_SNAPSHOT_VERSION`]) holds a time-of-day [`MapSet`]: the slice
 //! length, the clock offset, how the slices were smoothed, the all-day map and one map
-//! (or none) per slice, each as a version-1 payload. A single map (and a set without
-//! slices) is still written as version 1, which every build reads; a version-2 file read
-//! as one map ([`read_snapshot`], [`CliffMap::load`]) gives its all-day map.
+//! (or none) per slice, each as a version-1 payload, and the maps' speed prior
+//! ([`SpeedPrior`], learned by `cliff map build`). A single map without a speed prior
+//! (and such a set without slices) is still written as version 1, which every build
+//! reads; a map with a speed prior is written as version 2 without slices. A version-2
+//! file read as one map ([`read_snapshot`], [`CliffMap::load`]) gives its all-day map,
+//! with the speed prior.
 
 use std::path::Path;
 use std::sync::Arc;
@@ -19,6 +22,7 @@ use serde::{Deserialize, Serialize};
 use super::timeofday::{MapSet, SetParts, Smoothing, slice_label};
 use super::{CliffMap, Location, MAX_MAP_FILE_BYTES, MapError};
 use crate::bounded_read::read_at_most;
+use crate::motion::SpeedPrior;
 
 /// The first eight bytes of every snapshot.
 pub const SNAPSHOT_MAGIC: [u8; 8] = *b"CLIFFMAP";
@@ -59,6 +63,8 @@ struct SetPayload {
     slices: Vec<Option<Payload>>,
     /// Moving observations of each slice's own data (empty when unknown).
     observations: Vec<u64>,
+    /// The speed prior of every map of the set.
+    speed_prior: Option<SpeedPrior>,
 }
 
 fn with_header(version: u32, body: &[u8]) -> Vec<u8> {
@@ -71,8 +77,12 @@ fn with_header(version: u32, body: &[u8]) -> Vec<u8> {
     out
 }
 
-/// Encode a map as snapshot bytes (version 1).
+/// Encode a map as snapshot bytes (version 1; version 2 without slices for a map with
+/// a speed prior).
 pub fn encode(map: &CliffMap) -> Vec<u8> {
+    if map.speed_prior().is_some() {
+        return encode_v2(&MapSet::single(map.clone()));
+    }
     let body = postcard::to_stdvec(&Payload::of(map))
         .expect("serialising plain data to memory cannot fail");
     with_header(SNAPSHOT_VERSION, &body)
@@ -80,9 +90,13 @@ pub fn encode(map: &CliffMap) -> Vec<u8> {
 
 /// Encode a map set as snapshot bytes: version 2, or version 1 for a set without slices.
 pub(crate) fn encode_set(set: &MapSet) -> Vec<u8> {
-    if !set.is_sliced() {
+    if !set.is_sliced() && set.all_day().speed_prior().is_none() {
         return encode(set.all_day());
     }
+    encode_v2(set)
+}
+
+fn encode_v2(set: &MapSet) -> Vec<u8> {
     let payload = SetPayload {
         slice_length: set.slice_length(),
         clock_offset: set.clock_offset(),
@@ -94,6 +108,7 @@ pub(crate) fn encode_set(set: &MapSet) -> Vec<u8> {
             .map(|s| s.as_deref().map(Payload::of))
             .collect(),
         observations: set.observations().to_vec(),
+        speed_prior: set.all_day().speed_prior(),
     };
     let body = postcard::to_stdvec(&payload).expect("serialising plain data to memory cannot fail");
     with_header(SET_SNAPSHOT_VERSION, &body)
@@ -113,10 +128,15 @@ pub fn decode(bytes: &[u8], file: &str) -> Result<CliffMap, MapError> {
             file: file.to_string(),
             message: e.to_string(),
         }),
-        Decoded::Set(p) => p.all_day.into_map().map_err(|e| MapError::Snapshot {
-            file: file.to_string(),
-            message: format!("all-day map: {e}"),
-        }),
+        Decoded::Set(p) => {
+            let bad = |e: MapError| MapError::Snapshot {
+                file: file.to_string(),
+                message: format!("all-day map: {e}"),
+            };
+            let mut map = p.all_day.into_map().map_err(bad)?;
+            map.set_speed_prior(p.speed_prior).map_err(bad)?;
+            Ok(map)
+        }
     }
 }
 
@@ -137,8 +157,11 @@ pub(crate) fn decode_set(bytes: &[u8], file: &str) -> Result<MapSet, MapError> {
     };
     // The set's own fields first: a slice count that does not fit the slice length
     // is refused before any slice map is built.
-    let count =
-        crate::map::timeofday::slice_count(p.slice_length).map_err(|e| bad(e.to_string()))?;
+    let count = if p.slices.is_empty() {
+        0
+    } else {
+        crate::map::timeofday::slice_count(p.slice_length).map_err(|e| bad(e.to_string()))?
+    };
     if p.slices.len() != count {
         return Err(bad(format!(
             "{} slices, a slice length of {} s makes {count}",
@@ -146,20 +169,28 @@ pub(crate) fn decode_set(bytes: &[u8], file: &str) -> Result<MapSet, MapError> {
             p.slice_length
         )));
     }
-    let all_day = p
+    let mut all_day = p
         .all_day
         .into_map()
         .map_err(|e| bad(format!("all-day map: {e}")))?;
+    all_day
+        .set_speed_prior(p.speed_prior)
+        .map_err(|e| bad(format!("speed prior: {e}")))?;
     let mut slices = Vec::with_capacity(count);
     for (i, s) in p.slices.into_iter().enumerate() {
         slices.push(match s {
             None => None,
-            Some(s) => Some(Arc::new(s.into_map().map_err(|e| {
-                bad(format!(
-                    "slice {i} ({}): {e}",
-                    slice_label(i, p.slice_length)
-                ))
-            })?)),
+            Some(s) => {
+                let mut map = s.into_map().map_err(|e| {
+                    bad(format!(
+                        "slice {i} ({}): {e}",
+                        slice_label(i, p.slice_length)
+                    ))
+                })?;
+                map.set_speed_prior(p.speed_prior)
+                    .map_err(|e| bad(format!("speed prior: {e}")))?;
+                Some(Arc::new(map))
+            }
         });
     }
     MapSet::from_parts(SetParts {
@@ -259,6 +290,50 @@ pub fn write_snapshot(map: &CliffMap, path: &Path) -> Result<(), MapError> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_speed_prior_round_trips_as_version_2_and_a_map_without_one_stays_version_1() {
+        use crate::motion::SpeedPrior;
+        let prior = SpeedPrior {
+            mean: 1.18,
+            keep: 0.63,
+            pairs: 15954,
+        };
+        let mut map = CliffMap::demo();
+        assert_eq!(encode(&map)[8..12], SNAPSHOT_VERSION.to_le_bytes());
+        map.set_speed_prior(Some(prior)).unwrap();
+        let bytes = encode(&map);
+        assert_eq!(bytes[8..12], SET_SNAPSHOT_VERSION.to_le_bytes());
+        let back = decode(&bytes, "p").unwrap();
+        assert_eq!(back.speed_prior(), Some(prior));
+        assert_eq!(back.locations(), map.locations());
+        let set = decode_set(&bytes, "p").unwrap();
+        assert!(!set.is_sliced());
+        assert_eq!(set.all_day().speed_prior(), Some(prior));
+        // the set re-encodes to the same bytes
+        assert_eq!(encode_set(&set), bytes);
+        // a damaged prior is refused with the file's name
+        let mut bad = set.clone();
+        bad.set_speed_prior(None).unwrap();
+        let body = postcard::to_stdvec(&SetPayload {
+            slice_length: crate::map::timeofday::DAY_SECONDS,
+            clock_offset: 0.0,
+            smoothing: None,
+            all_day: Payload::of(&CliffMap::demo()),
+            slices: vec![],
+            observations: vec![],
+            speed_prior: Some(SpeedPrior {
+                mean: f64::NAN,
+                ..prior
+            }),
+        })
+        .unwrap();
+        let e = decode(&with_header(SET_SNAPSHOT_VERSION, &body), "bad.cliff").unwrap_err();
+        assert!(
+            e.to_string().contains("bad.cliff") && e.to_string().contains("speed prior"),
+            "{e}"
+        );
+    }
 
     #[test]
     fn round_trip_is_exact() {
@@ -458,6 +533,7 @@ mod tests {
             all_day: Payload::of(set.all_day()),
             slices: (0..23).map(|_| None).collect(),
             observations: Vec::new(),
+            speed_prior: None,
         };
         let wrap2 =
             |p: &SetPayload| with_header(SET_SNAPSHOT_VERSION, &postcard::to_stdvec(p).unwrap());

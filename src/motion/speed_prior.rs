@@ -69,6 +69,23 @@ impl SpeedPrior {
         Ok(())
     }
 
+    /// [`fit`](Self::fit) with the paper's 3.2 s of observation and a time step from
+    /// the data: the median time between rows, within 0.4 s (THÖR's step) and 1 s
+    /// (ATC's). What `cliff map build` stores with a map.
+    pub fn fit_tracks(tracks: &[Track]) -> Option<SpeedPrior> {
+        let mut gaps: Vec<f64> = tracks
+            .iter()
+            .flat_map(|t| t.rows.windows(2).map(|w| w[1].t - w[0].t))
+            .filter(|g| g.is_finite() && *g > 0.0)
+            .collect();
+        if gaps.is_empty() {
+            return None;
+        }
+        let mid = gaps.len() / 2;
+        let (_, median, _) = gaps.select_nth_unstable_by(mid, f64::total_cmp);
+        Self::fit(tracks, 3.2, median.clamp(0.4, 1.0))
+    }
+
     /// Fit a prior from `tracks`, taking the people as the `seconds` evaluation
     /// protocol does (each track observed for `obs` seconds from its first row, start
     /// speed by the reference's velocity kernel at time step `dt`, tracks that stand

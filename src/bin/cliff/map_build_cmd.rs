@@ -5,7 +5,7 @@ use std::time::Instant;
 
 use anyhow::{Context, Result, bail};
 use clap::Args;
-use cliff::eval::dataset::Format;
+use cliff::eval::dataset::{Format, Track};
 use cliff::map::CliffMap;
 use cliff::map::build::{
     BuildParams, EmParams, FitParams, MeanShift, Observation, build_map_with_progress,
@@ -15,6 +15,7 @@ use cliff::map::score::{ScoreParams, score as score_map, score_set};
 use cliff::map::timeofday::build_map_set_with_progress;
 use cliff::map::update::{OnlineMap, UpdateParams};
 use cliff::map::{MapFormat, SliceParams, Smoothing};
+use cliff::motion::SpeedPrior;
 use indicatif::{ProgressBar, ProgressStyle};
 
 use crate::clock;
@@ -38,24 +39,24 @@ fn parse_format(s: &str) -> Result<Format, String> {
 }
 
 impl TrackArgs {
-    fn observations(&self) -> Result<Vec<Observation>> {
+    fn observations(&self) -> Result<(Vec<Observation>, Vec<Track>)> {
         let tracks = load_tracks_with(&self.tracks, self.format, &self.read)
             .context("reading trajectories")?;
         let obs = observations_from_tracks(&tracks);
         if obs.is_empty() {
             bail!("the trajectory files hold no rows");
         }
-        Ok(obs)
+        Ok((obs, tracks))
     }
 
-    fn timed_observations(&self) -> Result<(Vec<Observation>, Vec<f64>)> {
+    fn timed_observations(&self) -> Result<(Vec<Observation>, Vec<f64>, Vec<Track>)> {
         let tracks = load_tracks_with(&self.tracks, self.format, &self.read)
             .context("reading trajectories")?;
         let (obs, times) = timed_observations_from_tracks(&tracks);
         if obs.is_empty() {
             bail!("the trajectory files hold no rows");
         }
-        Ok((obs, times))
+        Ok((obs, times, tracks))
     }
 }
 
@@ -117,6 +118,11 @@ pub struct BuildArgs {
     /// Most components per location of a slice map (near-duplicates are merged).
     #[arg(long, value_name = "N", default_value_t = Smoothing::default().max_components)]
     pub slice_max_components: usize,
+    /// Do not learn a speed prior (by default the map keeps how the tracks' speeds over
+    /// the next 10-50 s regress to their typical speed, for `--methods improved`;
+    /// stored in .cliff snapshots only).
+    #[arg(long)]
+    pub no_speed_prior: bool,
     /// No progress bar.
     #[arg(long)]
     pub quiet: bool,
@@ -180,7 +186,7 @@ pub fn build(a: BuildArgs) -> Result<()> {
     let params = a.params();
     params.check()?;
     let t0 = Instant::now();
-    let obs = a.input.observations()?;
+    let (obs, tracks) = a.input.observations()?;
     let t_read = t0.elapsed();
     let pb = progress_bar(a.quiet);
     let built = with_threads(a.threads, || {
@@ -193,12 +199,14 @@ pub fn build(a: BuildArgs) -> Result<()> {
     })??;
     pb.finish_and_clear();
     let t_fit = t0.elapsed() - t_read;
-    built
-        .map
-        .save(&a.out)
+    let mut map = built.map;
+    let prior = speed_prior(&a, &tracks)?;
+    map.set_speed_prior(prior)?;
+    map.save(&a.out)
         .with_context(|| format!("writing {}", a.out.display()))?;
     let s = built.summary;
     println!("wrote {}", a.out.display());
+    print_speed_prior(&a, prior);
     println!(
         "observations        {} ({} standing, not used)",
         s.observations, s.standing
@@ -225,6 +233,36 @@ pub fn build(a: BuildArgs) -> Result<()> {
     Ok(())
 }
 
+/// The speed prior of the map being built (none with `--no-speed-prior`, or when the
+/// tracks hold too few walkers).
+fn speed_prior(a: &BuildArgs, tracks: &[Track]) -> Result<Option<SpeedPrior>> {
+    if a.no_speed_prior {
+        return Ok(None);
+    }
+    Ok(SpeedPrior::fit_tracks(tracks))
+}
+
+fn print_speed_prior(a: &BuildArgs, prior: Option<SpeedPrior>) {
+    match prior {
+        Some(p) => {
+            let kept = if MapFormat::from_path(&a.out).ok() == Some(MapFormat::Csv) {
+                " (not in the CSV file: the published format has no place for it; write .cliff to keep it)"
+            } else {
+                ""
+            };
+            println!(
+                "speed prior         v = {:.3} + {:.3} (v0 - {:.3}) m/s, from {} pairs{kept}",
+                p.mean, p.keep, p.mean, p.pairs
+            );
+        }
+        None if a.no_speed_prior => println!("speed prior         none (--no-speed-prior)"),
+        None => println!(
+            "speed prior         none (fewer than {} walkers with 10 s ahead)",
+            cliff::motion::MIN_PAIRS
+        ),
+    }
+}
+
 /// `cliff map build --slice`: a time-of-day set.
 fn build_set(a: BuildArgs, slice_length: f64) -> Result<()> {
     let params = a.params();
@@ -248,7 +286,7 @@ fn build_set(a: BuildArgs, slice_length: f64) -> Result<()> {
     };
     slicing.check()?;
     let t0 = Instant::now();
-    let (obs, times) = a.input.timed_observations()?;
+    let (obs, times, tracks) = a.input.timed_observations()?;
     let t_read = t0.elapsed();
     let pb = progress_bar(a.quiet);
     let part = std::sync::Mutex::new(String::new());
@@ -266,12 +304,16 @@ fn build_set(a: BuildArgs, slice_length: f64) -> Result<()> {
     })??;
     pb.finish_and_clear();
     let t_fit = t0.elapsed() - t_read;
+    let mut built = built;
+    let prior = speed_prior(&a, &tracks)?;
+    built.set.set_speed_prior(prior)?;
     built
         .set
         .save(&a.out)
         .with_context(|| format!("writing {}", a.out.display()))?;
     let s = built.all_day.summary;
     println!("wrote {}", a.out.display());
+    print_speed_prior(&a, prior);
     println!(
         "observations        {} ({} standing, not used)",
         s.observations, s.standing
@@ -355,10 +397,10 @@ pub fn score(a: ScoreArgs) -> Result<()> {
         ..ScoreParams::default()
     };
     let r = if set.is_sliced() {
-        let (obs, times) = a.input.timed_observations()?;
+        let (obs, times, _) = a.input.timed_observations()?;
         score_set(&set, &obs, &times, &params)?
     } else {
-        let obs = a.input.observations()?;
+        let (obs, _) = a.input.observations()?;
         score_map(set.all_day(), &obs, &params)?
     };
     if a.json {
@@ -416,7 +458,7 @@ pub struct UpdateArgs {
 /// Run `cliff map update`.
 pub fn update(a: UpdateArgs) -> Result<()> {
     let map = CliffMap::load(&a.map).with_context(|| format!("loading map {}", a.map.display()))?;
-    let obs = a.input.observations()?;
+    let (obs, _) = a.input.observations()?;
     let params = UpdateParams {
         decay: a.decay,
         radius: a.radius,

@@ -181,6 +181,13 @@ pub fn run(cmd: MapCommand) -> Result<()> {
                 println!("all-day map:");
             }
             print_info(&set.all_day().info());
+            match set.all_day().speed_prior() {
+                Some(p) => println!(
+                    "speed prior         v = {:.3} + {:.3} (v0 - {:.3}) m/s, from {} pairs",
+                    p.mean, p.keep, p.mean, p.pairs
+                ),
+                None => println!("speed prior         none (improved keeps the observed speed)"),
+            }
             if set.is_sliced() {
                 print_set_info(&set);
             }

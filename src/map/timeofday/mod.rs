@@ -255,6 +255,19 @@ impl MapSet {
         }
     }
 
+    /// Attach a speed prior to every map of the set (see
+    /// [`CliffMap::set_speed_prior`]).
+    pub fn set_speed_prior(
+        &mut self,
+        prior: Option<crate::motion::SpeedPrior>,
+    ) -> Result<(), MapError> {
+        Arc::make_mut(&mut self.all_day).set_speed_prior(prior)?;
+        for s in self.slices.iter_mut().flatten() {
+            Arc::make_mut(s).set_speed_prior(prior)?;
+        }
+        Ok(())
+    }
+
     /// A set from its parts. Fails when the slice length does not divide the day (with
     /// slices), the number of slices does not match it, the observation counts are
     /// neither empty nor one per slice, the clock offset is beyond a day or not finite,
