@@ -29,7 +29,8 @@ pub struct Preset {
     pub options: Options,
 }
 
-/// The `improved` method ([`Method::Improved`]): CLiFF-LHMP (the paper's beta 1) with
+/// The `improved` method ([`Method::Improved`]): CLiFF-LHMP with a heading kernel of
+/// beta 2 (turning towards sampled directions more reluctantly than the paper's 1) and
 ///
 /// * **follow 4** ([`Options::follow`]): the component drawn at each step is weighed by
 ///   how well it agrees with the walker's heading, so samples keep to the flows going
@@ -45,11 +46,11 @@ pub struct Preset {
 ///   likely sample ([`TrajectoryBatch::best_sample`](super::TrajectoryBatch::best_sample)).
 ///
 /// On ATC's held-out hours (atc/dev, map from atc/train, 10 seeds, the same people) its
-/// mean ADE is 15 % below the paper's at 5 s, 27 % at 20 s and 14 % at 50 s (README,
+/// mean ADE is 16 % below the paper's at 5 s, 27 % at 20 s and 13 % at 50 s (README,
 /// "Beyond the paper"). Its content is set by the project's held-out experiments and may
 /// change between versions; `cliff` (the paper's method) stays as it is.
 pub const IMPROVED: Preset = Preset {
-    beta: 1.0,
+    beta: 2.0,
     options: Options {
         speed_beta: 0.0,
         coast: 0.0,
