@@ -78,6 +78,7 @@ fn bench(c: &mut Criterion) {
         speed_beta: 1.0,
         coast: 4.0,
         scores: true,
+        ..Options::default()
     };
     let coast = Options {
         coast: 4.0,
@@ -176,6 +177,25 @@ fn bench(c: &mut Criterion) {
             })
         });
     }
+    // the improved preset: five candidates per kept sample, follow, scores
+    c.bench_function("atc_person_k20_50steps_improved", |b| {
+        b.iter(|| {
+            seed += 1;
+            predict_with(
+                &atc_map,
+                black_box(std::slice::from_ref(&atc.start)),
+                &Params {
+                    seed,
+                    method: Method::Improved,
+                    ..atc_params
+                },
+                &Options::default(),
+                &mut batch,
+            )
+            .unwrap();
+            black_box(batch.lens()[0])
+        })
+    });
 }
 
 criterion_group!(benches, bench);

@@ -440,8 +440,18 @@ fn improved_is_cliff_with_the_preset_in_eval_and_predict() {
         "improved",
         &["--methods", "cliff,improved", "--beta", "0.5"],
     );
-    let beta2 = eval("beta2", &["--methods", "cliff", "--beta", "2"]);
-    // the improved rows are those of CLiFF-LHMP with the preset's beta, whatever --beta says
+    let preset = [
+        "--beta",
+        "2",
+        "--follow",
+        "4",
+        "--candidates",
+        "5",
+        "--speed-prior",
+    ];
+    let beta2 = eval("beta2", &[&["--methods", "cliff"][..], &preset].concat());
+    // the improved rows are those of CLiFF-LHMP with the preset's options, whatever
+    // --beta says
     let rows = |csv: &str, method: &str| -> Vec<String> {
         csv.lines()
             .filter_map(|l| l.strip_prefix(&format!("{method},")).map(String::from))
@@ -450,13 +460,14 @@ fn improved_is_cliff_with_the_preset_in_eval_and_predict() {
     assert_eq!(rows(&improved, "improved").len(), 30);
     assert_eq!(rows(&improved, "improved"), rows(&beta2, "cliff"));
     assert_ne!(rows(&improved, "cliff"), rows(&beta2, "cliff"));
-    let predict = |method: &str, beta: &str| {
-        let o = cliff(&[
+    let (thor_map, thor_tracks) = (data("thor1/cliffmap.csv"), data("thor1/exp-1-run-2.csv"));
+    let predict = |method: &str, extra: &[&str]| {
+        let mut args = vec![
             "predict",
             "--map",
-            &data("thor1/cliffmap.csv"),
+            &thor_map,
             "--tracks",
-            &data("thor1/exp-1-run-2.csv"),
+            &thor_tracks,
             "--protocol",
             "reference",
             "--person",
@@ -465,13 +476,16 @@ fn improved_is_cliff_with_the_preset_in_eval_and_predict() {
             "5",
             "--method",
             method,
-            "--beta",
-            beta,
-        ]);
+        ];
+        args.extend_from_slice(extra);
+        let o = cliff(&args);
         assert!(o.status.success(), "{}", text(&o).1);
         text(&o).0
     };
-    assert_eq!(predict("improved", "1"), predict("cliff", "2"));
+    assert_eq!(
+        predict("improved", &["--beta", "1"]),
+        predict("cliff", &preset)
+    );
     let o = cliff(&[
         "predict", "--tracks", "x.csv", "--person", "1", "--method", "best",
     ]);

@@ -7,8 +7,8 @@ use std::path::Path;
 
 use cliff::eval::dataset::{DatasetError, Format, parse_track_bytes};
 use cliff::map::{
-    CliffMap, MapError, SNAPSHOT_MAGIC, SNAPSHOT_VERSION, read_csv_bytes, read_csv_str,
-    read_snapshot_bytes, write_csv_string,
+    CliffMap, MapError, MapSet, SET_SNAPSHOT_VERSION, SNAPSHOT_MAGIC, SNAPSHOT_VERSION, SetParts,
+    read_csv_bytes, read_csv_str, read_snapshot_bytes, write_csv_string,
 };
 use rand::{Rng, RngExt, SeedableRng};
 use rand_xoshiro::Xoshiro256PlusPlus;
@@ -163,8 +163,12 @@ fn mutated_map_csv_loads_or_names_line_and_column() {
 }
 
 fn with_header(body: &[u8]) -> Vec<u8> {
+    with_version(SNAPSHOT_VERSION, body)
+}
+
+fn with_version(version: u32, body: &[u8]) -> Vec<u8> {
     let mut out = SNAPSHOT_MAGIC.to_vec();
-    out.extend_from_slice(&SNAPSHOT_VERSION.to_le_bytes());
+    out.extend_from_slice(&version.to_le_bytes());
     out.extend_from_slice(&(body.len() as u64).to_le_bytes());
     out.extend_from_slice(&crc32fast::hash(body).to_le_bytes());
     out.extend_from_slice(body);
@@ -319,4 +323,74 @@ fn fuzz_seed_corpus_replays_without_panics() {
             assert!(parse_track_bytes(&bytes, &name, format).is_ok(), "{name}");
         }
     }
+}
+
+#[test]
+fn mutated_time_of_day_sets_load_or_are_refused() {
+    // A set of the first 120 rows of the THÖR1 map all day, two one-hour slices cut
+    // from it and the rest left to the all-day map.
+    let day = read_csv_bytes(&head("thor1/cliffmap.csv", 120), "m.csv").unwrap();
+    let part = |keep: i64| {
+        let locs: Vec<_> = day
+            .locations()
+            .iter()
+            .filter(|l| ((l.position.x * 2.0).round() as i64).rem_euclid(2) == keep)
+            .cloned()
+            .collect();
+        std::sync::Arc::new(CliffMap::with_grid_step(locs, Some(day.grid().step())).unwrap())
+    };
+    let mut slices = vec![None; 24];
+    slices[8] = Some(part(0));
+    slices[17] = Some(part(1));
+    let set = MapSet::from_parts(SetParts {
+        all_day: std::sync::Arc::new(day.clone()),
+        slices,
+        slice_length: 3600.0,
+        clock_offset: 3600.0,
+        smoothing: None,
+        observations: Vec::new(),
+    })
+    .unwrap();
+    let bytes = set.to_snapshot_bytes();
+    let back = MapSet::from_snapshot_bytes(&bytes, "s.cliff").unwrap();
+    assert_eq!(
+        back.slices()[17].as_ref().unwrap().locations(),
+        set.slices()[17].as_ref().unwrap().locations()
+    );
+    let payload = &bytes[24..];
+    let mut rng = Xoshiro256PlusPlus::seed_from_u64(12);
+    let (mut loaded, mut refused) = (0, 0);
+    for i in 0..1500 {
+        let m = if i % 4 == 0 {
+            mutate(&bytes, &mut rng)
+        } else {
+            let mut p = payload.to_vec();
+            for _ in 0..rng.random_range(1..4) {
+                let j = rng.random_range(0..p.len());
+                p[j] = rng.random();
+            }
+            if rng.random_range(0..4) == 0 {
+                p.truncate(rng.random_range(0..p.len()));
+            }
+            with_version(SET_SNAPSHOT_VERSION, &p)
+        };
+        match MapSet::from_snapshot_bytes(&m, "s.cliff") {
+            Ok(set) => {
+                loaded += 1;
+                assert!(set.maps().all(|m| !m.locations().is_empty()));
+                // read as one map, the same file gives the set's all-day map
+                let one = read_snapshot_bytes(&m, "s.cliff").unwrap();
+                assert_eq!(one.locations(), set.all_day().locations());
+            }
+            Err(MapError::Snapshot { file, .. }) => {
+                refused += 1;
+                assert_eq!(file, "s.cliff");
+            }
+            Err(e) => panic!("a snapshot error of the wrong kind: {e}"),
+        }
+    }
+    assert!(
+        loaded > 50 && refused > 500,
+        "{loaded} loaded, {refused} refused"
+    );
 }

@@ -259,7 +259,7 @@ fn ipc_err(what: &str, e: impl fmt::Debug) -> Error {
 /// paper, a score per sample and a map of the time of day:
 ///
 /// ```
-/// use cliff::predict::{Options, Params};
+/// use cliff::predict::Params;
 /// use cliff_client::{MapTime, Request};
 ///
 /// let r = Request::new("atc", &Params::default())?
@@ -267,7 +267,8 @@ fn ipc_err(what: &str, e: impl fmt::Debug) -> Error {
 ///     .coast(6.0) // 6 s at constant velocity where the map has no data
 ///     .scores(true) // a score per sample: Prediction::scores, best_sample
 ///     .time(1_351_700_000.0); // the map of that time of day (default: the daemon's clock)
-/// assert_eq!(r.options(), Options { speed_beta: 2.0, coast: 6.0, scores: true });
+/// let o = r.options();
+/// assert_eq!((o.speed_beta, o.coast, o.scores), (2.0, 6.0, true));
 /// assert_eq!(r.map_time(), MapTime::At(1_351_700_000.0));
 /// # Ok::<(), cliff_client::Error>(())
 /// ```

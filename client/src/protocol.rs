@@ -32,6 +32,7 @@ use std::fmt;
 use cliff::glam::DVec2;
 use cliff::map::CliffMap;
 use cliff::motion::{DEFAULT_SIGMA, State, velocity_from_positions, velocity_from_speed_angle};
+use cliff::predict::preset::cost_factor;
 use cliff::predict::{HeadingRule, Method, Options, Params, TrajectoryBatch, predict_with};
 use iceoryx2::prelude::ZeroCopySend;
 
@@ -202,6 +203,8 @@ impl RequestHeader {
             speed_beta: self.speed_beta,
             coast: self.coast,
             scores: self.flags & FLAG_SCORES != 0,
+            // not on the wire: only through a preset method (improved)
+            ..Options::default()
         }
     }
 
@@ -243,18 +246,6 @@ pub fn method_from_code(code: u32) -> Option<Method> {
         METHOD_CVM => Some(Method::Cvm),
         METHOD_IMPROVED => Some(Method::Improved),
         _ => None,
-    }
-}
-
-/// How much a position of `method` costs next to one of CLiFF-LHMP, for the daemon's
-/// cost accounting (request limits and chunk sizes). 1 for every method today: the
-/// library states no cost of its own, and the improved preset
-/// (`cliff::predict::preset::IMPROVED`: beta 2 and scores) draws no more candidates per
-/// step than CLiFF-LHMP. A preset that draws more raises it here, and the limits and
-/// chunks follow.
-pub fn cost_factor(method: Method) -> usize {
-    match method {
-        Method::Cliff | Method::Cvm | Method::Improved => 1,
     }
 }
 
@@ -803,8 +794,10 @@ impl Limits {
     }
 
     /// The most positions of CLiFF-LHMP's cost one request may ask for:
-    /// `max_agents x max_k x max_steps`. A request of a method with a [`cost_factor`]
-    /// above 1 may hold that many positions divided by the factor.
+    /// `max_agents x max_k x max_steps`. A request whose method costs a multiple of
+    /// CLiFF-LHMP per position ([`cliff::predict::preset::cost_factor`]: the improved
+    /// preset draws several candidates per kept sample) may hold that many positions
+    /// divided by the factor.
     pub fn max_cost(&self) -> u64 {
         self.max_agents as u64 * self.max_k as u64 * self.max_steps as u64
     }
@@ -954,7 +947,18 @@ pub fn decode_request(
     if h.agents == 0 || h.agents > limits.max_agents {
         return Err(Rejection::over(BadAgents, Field::Agents, limits.max_agents));
     }
-    let factor = cost_factor(method) as u64;
+    let params = Params {
+        method,
+        k: h.k as usize,
+        dt: h.dt,
+        horizon: h.horizon,
+        beta: h.beta,
+        radius: h.radius,
+        seed: h.seed,
+        heading,
+    };
+    let mut options = h.options();
+    let factor = cost_factor(&params, &options) as u64;
     if factor > 1 {
         // the most agents of this k and steps within the cost of the largest request
         let per_agent = h.k as u64 * steps as u64 * factor;
@@ -996,17 +1000,6 @@ pub fn decode_request(
             ..Rejection::new(BadLayout, Field::Agents)
         });
     }
-    let params = Params {
-        method,
-        k: h.k as usize,
-        dt: h.dt,
-        horizon: h.horizon,
-        beta: h.beta,
-        radius: h.radius,
-        seed: h.seed,
-        heading,
-    };
-    let mut options = h.options();
     options.scores = scores_in_response(&params, &options);
     Result::Ok(Decoded {
         params,
@@ -1301,6 +1294,7 @@ mod tests {
             speed_beta: 2.0,
             coast: 12.0,
             scores: true,
+            ..Options::default()
         };
         assert_eq!((d.options, d.map_time), (want, MapTime::At(1.35e9)));
         h.set_map_time(MapTime::AllDay);
@@ -1341,6 +1335,39 @@ mod tests {
         let rows = [Observation::with_velocity(0.0, 0.0, 0.0, -1.0, 0.0)];
         let r = reject(&h, &rows);
         assert_eq!((r.status, r.field), (Status::BadValue, Field::Speed));
+    }
+
+    #[test]
+    fn a_method_that_costs_more_may_hold_fewer_agents() {
+        // k 50, 100 steps: the largest request of the default limits
+        let improved = Params {
+            method: Method::Improved,
+            k: 50,
+            horizon: 40.0,
+            ..Params::default()
+        };
+        let factor = cost_factor(&improved, &Options::default());
+        assert!(factor > 1, "the improved preset draws candidates");
+        let most = (32 * 50 * 100 / (50 * 100 * factor)) as u32;
+        let rows = |n: u32| (0..n).flat_map(|a| walk(a, 2)).collect::<Vec<_>>();
+        let mut s = DecodeScratch::new(&Limits::default());
+        let mut h = RequestHeader::from_params(&improved);
+        h.set_map_name("demo").unwrap();
+        h.agents = most + 1;
+        let r = decode_request(&h, &rows(most + 1), &Limits::default(), &mut s).unwrap_err();
+        assert_eq!(
+            (r.status, r.field, r.limit),
+            (Status::BadAgents, Field::Agents, most)
+        );
+        h.agents = most;
+        assert!(decode_request(&h, &rows(most), &Limits::default(), &mut s).is_ok());
+        // the paper's method: up to the limit on agents
+        let mut h = RequestHeader::from_params(&Params {
+            method: Method::Cliff,
+            ..improved
+        });
+        h.agents = 32;
+        assert!(decode_request(&h, &rows(32), &Limits::default(), &mut s).is_ok());
     }
 
     #[test]
@@ -1409,6 +1436,7 @@ mod tests {
             speed_beta: 2.0,
             coast: 4.0,
             scores: true,
+            ..Options::default()
         };
         h.set_options(&options);
         h.set_map_time(MapTime::At(3600.0));

@@ -239,6 +239,7 @@ impl PredictArgs<'_> {
             speed_beta: self.speed_beta,
             coast: self.coast,
             scores: self.scores,
+            ..Options::default()
         }
     }
 

@@ -43,8 +43,10 @@ use map::Map;
 ///         the map has no data; 0 stops it there (the paper).
 ///     scores: also return a score per sample (``Prediction.scores``).
 ///     time: which map of the time of day: None (the wall clock now), seconds on the
-///         map's clock (unix time, as the tracks had it) or "all-day". Checked; a map
-///         loaded here is one map, used whatever the time.
+///         map's clock (unix time, as the tracks had it) or "all-day". Checked, and
+///         the map given is used whatever the time (as ``cliffd`` does today; a
+///         time-of-day set predicts with its all-day map: pick a slice with
+///         ``map.slice_at(time)``).
 ///
 /// Returns:
 ///     Prediction with ``positions`` (float32, shape (people, k, steps, 2), NaN after

@@ -6,7 +6,9 @@ use std::sync::{Arc, Mutex};
 use cliff::eval::dataset::{Format, Track, read_many};
 use cliff::map::build::observations_from_tracks;
 use cliff::map::update::UpdateReport;
-use cliff::map::{BuildParams, CliffMap, OnlineMap as RustOnlineMap, ScoreParams, UpdateParams};
+use cliff::map::{
+    BuildParams, CliffMap, MapSet, OnlineMap as RustOnlineMap, ScoreParams, UpdateParams,
+};
 use numpy::ndarray::{Array1, Array2};
 use numpy::{IntoPyArray, PyArray1, PyArray2};
 use pyo3::exceptions::{PyTypeError, PyValueError};
@@ -23,6 +25,9 @@ use crate::prediction::{Prediction, predict_local};
 /// snapshot), ``Map.demo()`` (the built-in synthetic hall) or ``build_map(...)``.
 /// A map is immutable and safe to share between threads.
 ///
+/// A time-of-day set (``cliff map build --slice``) loads as its all-day map;
+/// ``slice_at(time)`` gives the map of the slice a timestamp falls in.
+///
 /// Example:
 ///     >>> import cliff_lhmp
 ///     >>> m = cliff_lhmp.Map.demo()
@@ -31,6 +36,18 @@ use crate::prediction::{Prediction, predict_local};
 #[pyclass(module = "cliff_lhmp", frozen)]
 pub struct Map {
     pub inner: Arc<CliffMap>,
+    /// The time-of-day set the map is the all-day map of (loaded from a set file).
+    pub set: Option<Arc<MapSet>>,
+}
+
+impl Map {
+    /// A map without slices.
+    pub fn single(map: Arc<CliffMap>) -> Self {
+        Map {
+            inner: map,
+            set: None,
+        }
+    }
 }
 
 /// Which format a `format=` argument names.
@@ -96,16 +113,52 @@ impl Map {
     /// Map.load(path) -> Map
     ///
     /// Load a map file: ``.csv`` (the published format: no header, one row per mixture
-    /// component) or ``.cliff`` (our checksummed snapshot). Raises FileNotFoundError for a
+    /// component) or ``.cliff`` (our checksummed snapshot). A time-of-day set loads as its
+    /// all-day map, with its slices for ``slice_at``. Raises FileNotFoundError for a
     /// missing file and ValueError naming the file, line and column of a bad value.
     #[staticmethod]
     fn load(py: Python<'_>, path: PathBuf) -> PyResult<Map> {
-        let map = py
-            .detach(|| CliffMap::load(&path))
+        let set = py
+            .detach(|| MapSet::load(&path))
             .map_err(|e| map_err("path", e))?;
         Ok(Map {
-            inner: Arc::new(map),
+            inner: set.all_day().clone(),
+            set: set.is_sliced().then(|| Arc::new(set)),
         })
+    }
+
+    /// slice_at(time, *, clock_offset=None) -> Map
+    ///
+    /// The map for a timestamp ``time`` (s, the clock of the data; ATC: unix time): the
+    /// map of the time-of-day slice it falls in after adding the clock offset (the one
+    /// stored in the set, or ``clock_offset`` seconds), or the all-day map where that
+    /// slice has none. A map without slices returns itself.
+    ///
+    /// Example:
+    ///     >>> m = cliff_lhmp.Map.load("atc-set.cliff")
+    ///     >>> m.slice_at(1351054800.0)  # 2012-10-24 14:00 in Japan (stored offset +9 h)
+    #[pyo3(signature = (time, *, clock_offset = None))]
+    fn slice_at(slf: &Bound<'_, Self>, time: f64, clock_offset: Option<f64>) -> PyResult<Py<Map>> {
+        let this = slf.get();
+        let Some(set) = &this.set else {
+            return Ok(slf.clone().unbind());
+        };
+        if !time.is_finite() {
+            return Err(PyValueError::new_err(format!(
+                "time: {time} is not a finite number of seconds"
+            )));
+        }
+        let map = match clock_offset {
+            None => set.at(time).clone(),
+            Some(o) => {
+                let mut other = MapSet::clone(set);
+                other
+                    .set_clock_offset(o)
+                    .map_err(|e| PyValueError::new_err(format!("clock_offset: {e}")))?;
+                other.at(time).clone()
+            }
+        };
+        Py::new(slf.py(), Map::single(map))
     }
 
     /// Map.demo() -> Map
@@ -114,19 +167,26 @@ impl Map {
     /// flows (the map ``cliffd`` serves as ``demo`` when started without ``--map``).
     #[staticmethod]
     fn demo() -> Map {
-        Map {
-            inner: Arc::new(CliffMap::demo()),
-        }
+        Map::single(Arc::new(CliffMap::demo()))
     }
 
     /// save(path) -> None
     ///
     /// Write the map: ``.csv`` in the published format, ``.cliff`` as a snapshot
-    /// (chosen by the file's extension).
+    /// (chosen by the file's extension). The all-day map of a time-of-day set is
+    /// written with its slices to ``.cliff``, alone to ``.csv``.
     fn save(&self, py: Python<'_>, path: PathBuf) -> PyResult<()> {
         let map = self.inner.clone();
-        py.detach(move || map.save(&path))
-            .map_err(|e| map_err("path", e))
+        let set = self.set.clone();
+        py.detach(move || match set {
+            Some(set)
+                if cliff::map::MapFormat::from_path(&path)? == cliff::map::MapFormat::Snapshot =>
+            {
+                set.save(&path)
+            }
+            _ => map.save(&path),
+        })
+        .map_err(|e| map_err("path", e))
     }
 
     /// info() -> dict
@@ -134,7 +194,9 @@ impl Map {
     /// Summary figures (as ``cliff map info`` prints them): ``locations``,
     /// ``components``, ``components_per_location`` (min, max), ``grid_step`` (m),
     /// ``extent`` ((x_min, y_min), (x_max, y_max)), ``observation_ratio`` (min, max),
-    /// ``clamped_covariances`` and ``renormalised_locations`` (what was fixed at load).
+    /// ``clamped_covariances`` and ``renormalised_locations`` (what was fixed at load);
+    /// for a time-of-day set, ``slices`` (0 without), ``slice_length`` (s) and
+    /// ``clock_offset`` (s).
     fn info<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let i = self.inner.info();
         let d = PyDict::new(py);
@@ -149,6 +211,13 @@ impl Map {
         d.set_item("observation_ratio", i.observation_ratio)?;
         d.set_item("clamped_covariances", i.report.clamped_covariances)?;
         d.set_item("renormalised_locations", i.report.renormalised_locations)?;
+        let (slices, length, offset) = match &self.set {
+            Some(s) => (s.slices().len(), s.slice_length(), s.clock_offset()),
+            None => (0, 86_400.0, 0.0),
+        };
+        d.set_item("slices", slices)?;
+        d.set_item("slice_length", length)?;
+        d.set_item("clock_offset", offset)?;
         Ok(d)
     }
 
@@ -347,9 +416,7 @@ pub fn build_map(
             )
         })
         .map_err(|e| PyValueError::new_err(format!("build_map: {e}")))?;
-    Ok(Map {
-        inner: Arc::new(built.map),
-    })
+    Ok(Map::single(Arc::new(built.map)))
 }
 
 /// A map that learns online: each ``update`` decays the counts it holds and folds in
@@ -464,7 +531,7 @@ impl OnlineMap {
                     .to_map()
             })
             .map_err(|e| map_err("map", e))?;
-        Ok(Map { inner: Arc::new(m) })
+        Ok(Map::single(Arc::new(m)))
     }
 
     fn __len__(&self) -> usize {

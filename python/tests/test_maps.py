@@ -154,3 +154,42 @@ def test_online_update_matches_cliff_map_update(tmp_path, thor1_map):
     assert second["observations"] > 0
     with pytest.raises(ValueError, match=r"decay: 0 must be in \(0, 1\]"):
         cliff_lhmp.OnlineMap(thor1_map, decay=0.0)
+
+
+def test_time_of_day_sets_load_as_the_all_day_map_and_give_their_slices(tmp_path):
+    # A set from two ATC training hours (unix time; Japan is UTC+9), as `cliff map build`
+    # writes it, and one slice exported to CSV by the command line.
+    train = [str(DATA / "atc" / "train" / f"atc-1024-{h}_train.csv") for h in (9, 19)]
+    path = tmp_path / "set.cliff"
+    run_cli("map", "build", "--tracks", *train, "--format", "atc", "--slice", "1h",
+            "--clock-offset", "9h", "--out", str(path), "--quiet")
+    run_cli("map", "convert", str(path), str(tmp_path / "h19.csv"), "--slice", "19")
+    run_cli("map", "convert", str(path), str(tmp_path / "day.csv"), "--slice", "all-day")
+    m = cliff_lhmp.Map.load(str(path))
+    day = cliff_lhmp.Map.load(str(tmp_path / "day.csv"))
+    h19 = cliff_lhmp.Map.load(str(tmp_path / "h19.csv"))
+    info = m.info()
+    assert (info["slices"], info["slice_length"], info["clock_offset"]) == (24, 3600.0, 32400.0)
+    assert day.info()["slices"] == 0
+    np.testing.assert_array_equal(m.components, day.components)
+    # a timestamp of the 19:00 dev file picks the 19:00 slice; 11:00 has no slice map
+    t19 = float(np.loadtxt(DATA / "atc" / "dev" / "atc-1024-19_test.csv", delimiter=",",
+                           max_rows=1)[0])
+    np.testing.assert_array_equal(m.slice_at(t19).components, h19.components)
+    assert not np.array_equal(h19.components, day.components)
+    np.testing.assert_array_equal(m.slice_at(t19 - 8 * 3600).components, day.components)
+    # in UTC the same moment is 10:00: no slice map, the all-day map
+    np.testing.assert_array_equal(m.slice_at(t19, clock_offset=0.0).components, day.components)
+    # a slice is a plain map; a map without slices is its own slice at any time
+    assert m.slice_at(t19).info()["slices"] == 0
+    assert day.slice_at(t19) is day
+    with pytest.raises(ValueError, match="clock_offset"):
+        m.slice_at(t19, clock_offset=1e9)
+    with pytest.raises(ValueError, match="time"):
+        m.slice_at(float("nan"))
+    # saved as a snapshot the set keeps its slices; as CSV only the all-day map
+    m.save(tmp_path / "again.cliff")
+    again = cliff_lhmp.Map.load(str(tmp_path / "again.cliff"))
+    np.testing.assert_array_equal(again.slice_at(t19).components, h19.components)
+    m.save(tmp_path / "again.csv")
+    assert cliff_lhmp.Map.load(str(tmp_path / "again.csv")).info()["slices"] == 0

@@ -19,9 +19,9 @@
 //! Every request is validated ([`cliff_client::protocol::decode_request`]) before any
 //! work: at most `max_agents x max_k x max_steps` predicted positions (32 x 50 x 100 by
 //! default; a method that costs a multiple of CLiFF-LHMP per position,
-//! [`cost_factor`](cliff_client::protocol::cost_factor), that many times fewer: 1 for
-//! every method today), and a sampling radius of at most the map's limit (4 grid steps
-//! by default).
+//! [`cost_factor`](cliff::predict::preset::cost_factor), that many times fewer: the
+//! improved preset draws several candidates per kept sample), and a sampling radius of
+//! at most the map's limit (4 grid steps by default).
 //! Each position costs one map lookup, which tests at most `(floor(2 r / step) + 1)^2`
 //! locations through the grid scan (81 at the default limit) and usually one through a
 //! neighbour table, plus one direction draw. So the work of an accepted request is at

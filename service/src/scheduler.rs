@@ -25,8 +25,9 @@ use std::sync::Arc;
 
 use cliff::map::{CliffMap, Lookup};
 use cliff::motion::State;
+use cliff::predict::preset::cost_factor;
 use cliff::predict::{BatchMut, Options, Params, Point, Rollout, Tables};
-use cliff_client::protocol::{DecodeScratch, Decoded, Limits, RequestHeader, cost_factor};
+use cliff_client::protocol::{DecodeScratch, Decoded, Limits, RequestHeader};
 use rayon::prelude::*;
 use tracing::error;
 
@@ -56,6 +57,8 @@ struct Task {
     map: Arc<CliffMap>,
     params: Params,
     options: Options,
+    /// Times the paper's work per position ([`cost_factor`]).
+    factor: usize,
     rollout: Rollout,
     agents: usize,
     next: usize,
@@ -70,6 +73,9 @@ pub(crate) struct Slot<O> {
     pub header: RequestHeader,
     /// The decoded agents.
     pub scratch: DecodeScratch,
+    /// The rollout of the slot's last request, restarted for the next one (its
+    /// buffers, e.g. for candidates, are grown once).
+    spare: Option<Rollout>,
     task: Option<Task>,
     output: Option<O>,
 }
@@ -127,6 +133,7 @@ impl<O: Output> Scheduler<O> {
                 .map(|_| Slot {
                     header: RequestHeader::default(),
                     scratch: DecodeScratch::new(limits),
+                    spare: None,
                     task: None,
                     output: None,
                 })
@@ -178,7 +185,8 @@ impl<O: Output> Scheduler<O> {
         let (params, options) = (&decoded.params, &decoded.options);
         let slot = &mut self.slots[i];
         let agents = slot.scratch.states().len();
-        let per_agent = params.k * params.steps() * cost_factor(params.method);
+        let factor = cost_factor(params, options);
+        let per_agent = params.k * params.steps() * factor;
         // Grid-scan lookups cost more per position than a table's.
         let looks_up = params.method.samples_map() || options.scores;
         let weight = match map.cached_lookup(params.radius) {
@@ -188,9 +196,14 @@ impl<O: Output> Scheduler<O> {
         let chunk = (self.chunk_positions / per_agent.saturating_mul(weight).max(1)).max(1);
         // Decoding checked the parameters, so the rollout cannot fail; if it did, the
         // request is answered as an internal error.
-        let rollout = Rollout::new(params).and_then(|r| r.with_options(*options));
+        let rollout = match slot.spare.take() {
+            Some(mut r) => r.restart(params, *options).map(|()| r),
+            None => Rollout::new(params)
+                .and_then(|r| r.with_options(*options))
+                .map(|r| r.with_tables(Tables::CachedOnly)),
+        };
         let (rollout, ok) = match rollout {
-            Ok(r) => (r.with_tables(Tables::CachedOnly), true),
+            Ok(r) => (r, true),
             Err(e) => {
                 error!("request parameters passed decoding but not the predictor: {e}");
                 (
@@ -203,6 +216,7 @@ impl<O: Output> Scheduler<O> {
             map,
             params: *params,
             options: *options,
+            factor,
             rollout,
             agents,
             next: 0,
@@ -229,7 +243,7 @@ impl<O: Output> Scheduler<O> {
                 .expect("queued slots hold a task");
             let n = t.chunk.min(t.agents - t.next);
             // positions at their cost
-            let p = n * t.params.k * t.params.steps() * cost_factor(t.params.method);
+            let p = n * t.params.k * t.params.steps() * t.factor;
             if !self.round.is_empty() && positions + p > budget {
                 break;
             }
@@ -296,6 +310,7 @@ impl<O: Output> Scheduler<O> {
                 ok: task.ok,
                 others,
             });
+            slot.spare = Some(task.rollout);
             self.free.push(i);
         }
     }
@@ -473,11 +488,13 @@ mod tests {
                 speed_beta: 2.0,
                 coast: 6.0,
                 scores: true,
+                ..Options::default()
             },
             Options {
                 speed_beta: 1.0,
                 coast: 16.0,
                 scores: false,
+                ..Options::default()
             },
         ];
         for (i, options) in cases.iter().enumerate() {

@@ -13,7 +13,7 @@ use rayon::prelude::*;
 use super::dataset::Track;
 use super::metrics::{Scratch, StepErrors, person_errors};
 use super::protocol::{Case, Settings, prepare_all};
-use crate::map::CliffMap;
+use crate::map::{CliffMap, MapAt};
 use crate::predict::{Method, Options, Params, PredictError, TrajectoryBatch, predict_with};
 
 /// What to evaluate.
@@ -184,9 +184,13 @@ fn run_case(
     Ok(res)
 }
 
-/// Evaluate `methods` on `tracks` with `map`. `progress` is called once per person done.
-pub fn evaluate(
-    map: &CliffMap,
+/// Evaluate `methods` on `tracks` with `maps`. `progress` is called once per person done.
+///
+/// `maps` is a [`CliffMap`] (every person gets it) or a time-of-day
+/// [`MapSet`](crate::map::MapSet): each person (or window) gets the map of the time of
+/// its last observed row ([`MapAt::map_at`]).
+pub fn evaluate<M: MapAt + Sync + ?Sized>(
+    maps: &M,
     tracks: &[Track],
     cfg: &EvalConfig,
     progress: &(dyn Fn() + Sync),
@@ -208,7 +212,7 @@ pub fn evaluate(
                 scratch: Scratch::default(),
             },
             |w, case| {
-                let r = run_case(map, case, cfg, w);
+                let r = run_case(maps.map_at(case.start.time), case, cfg, w);
                 progress();
                 r
             },

@@ -27,12 +27,14 @@ mod neighbours;
 pub mod score;
 mod snapshot;
 mod tables;
+pub mod timeofday;
 pub mod update;
 
 use std::f64::consts::TAU;
 use std::path::Path;
 use std::sync::Arc;
 
+use crate::motion::SpeedPrior;
 use build::{Gauss2, floor_eigenvalues};
 use glam::DVec2;
 use rand::distr::Distribution;
@@ -46,9 +48,13 @@ pub use grid::GridIndex;
 pub use neighbours::NeighbourTable;
 pub use score::{ScoreParams, ScoreReport, score};
 pub use snapshot::{
-    SNAPSHOT_MAGIC, SNAPSHOT_VERSION, read_snapshot, read_snapshot_bytes, write_snapshot,
+    SET_SNAPSHOT_VERSION, SNAPSHOT_MAGIC, SNAPSHOT_VERSION, read_snapshot, read_snapshot_bytes,
+    write_snapshot,
 };
 pub use tables::{DEFAULT_TABLE_BUDGET, TableCache, TableError, TableStats};
+pub use timeofday::{
+    BuiltSet, MapAt, MapSet, SetParts, SliceParams, SliceSummary, Smoothing, build_map_set,
+};
 pub use update::{OnlineMap, UpdateParams};
 
 /// Largest |x| and |y| (m) of a map location: maps are of buildings and sites, and this
@@ -167,6 +173,12 @@ pub enum MapError {
         /// What is wrong.
         message: String,
     },
+    /// A speed prior's values are unusable.
+    #[error("{0}")]
+    SpeedPrior(String),
+    /// A time-of-day map set or its options are inconsistent.
+    #[error("time-of-day maps: {0}")]
+    TimeOfDay(String),
     /// The file's extension names no known map format.
     #[error("{0}: unknown map format (use .csv for the published format or .cliff for a snapshot)")]
     UnknownFormat(String),
@@ -223,6 +235,16 @@ struct SpeedComponent {
     mean: f64,
     slope: f64,
     sd: f64,
+}
+
+/// Per-component entry of [`CliffMap::direction_following`], parallel to
+/// [`DirectionComponent`]: the normalised weight (0 for padding) and the unit vector of
+/// the mean direction.
+#[derive(Debug, Clone, Copy)]
+struct FollowComponent {
+    weight: f64,
+    cos_mu: f64,
+    sin_mu: f64,
 }
 
 /// Widest mixture whose locations get padded (see [`pad_components`]): more comparisons
@@ -286,6 +308,8 @@ pub struct CliffMap {
     table: Vec<DirectionComponent>,
     /// Speeds given the direction draw, indexed like `table`.
     speed: Vec<SpeedComponent>,
+    /// Components for [`CliffMap::direction_following`], indexed like `table`.
+    follow: Vec<FollowComponent>,
     /// Densities for sample scores: location `i`'s components are
     /// `density[density_start[i]..density_start[i + 1]]`.
     density_start: Vec<u32>,
@@ -293,6 +317,9 @@ pub struct CliffMap {
     /// The same components for [`CliffMap::step_log_density`].
     step_density: Vec<StepDensity>,
     report: MapReport,
+    /// How speeds ahead regress to a typical speed, learned with the map (see
+    /// [`SpeedPrior`](crate::motion::SpeedPrior)); `None` for maps without one.
+    speed_prior: Option<SpeedPrior>,
     /// Neighbour tables built so far, one per sampling radius, under a memory budget.
     tables: TableCache,
 }
@@ -307,10 +334,12 @@ impl Clone for CliffMap {
             comp_start: self.comp_start.clone(),
             table: self.table.clone(),
             speed: self.speed.clone(),
+            follow: self.follow.clone(),
             density_start: self.density_start.clone(),
             density: self.density.clone(),
             step_density: self.step_density.clone(),
             report: self.report,
+            speed_prior: self.speed_prior,
             tables: self.tables.clone(),
         }
     }
@@ -446,6 +475,7 @@ impl CliffMap {
         let mut comp_start = Vec::with_capacity(locations.len() + 1);
         let mut table = Vec::new();
         let mut speed = Vec::new();
+        let mut follow = Vec::new();
         let mut density_start = Vec::with_capacity(locations.len() + 1);
         let mut density = Vec::new();
         let mut report = MapReport::default();
@@ -468,6 +498,11 @@ impl CliffMap {
                     cum_weight: cum,
                     mu: c.theta,
                     sigma,
+                });
+                follow.push(FollowComponent {
+                    weight: c.weight / total,
+                    cos_mu: c.theta.cos(),
+                    sin_mu: c.theta.sin(),
                 });
                 speed.push(if cov[0] > 0.0 {
                     SpeedComponent {
@@ -501,6 +536,10 @@ impl CliffMap {
         comp_start.push(table.len() as u32);
         density_start.push(density.len() as u32);
         let (_, speed) = pad_with(comp_start.clone(), speed, |last| last);
+        let (_, follow) = pad_with(comp_start.clone(), follow, |last| FollowComponent {
+            weight: 0.0,
+            ..last
+        });
         let step_density = density
             .iter()
             .map(|g| StepDensity {
@@ -524,15 +563,18 @@ impl CliffMap {
             comp_start,
             table,
             speed,
+            follow,
             density_start,
             density,
             step_density,
             report,
+            speed_prior: None,
             tables: TableCache::default(),
         })
     }
 
-    /// Read a map from a file, by extension: `.csv` (published format) or `.cliff` (snapshot).
+    /// Read a map from a file, by extension: `.csv` (published format) or `.cliff` (snapshot;
+    /// a time-of-day set gives its all-day map, see [`MapSet::load`] for the whole set).
     pub fn load(path: impl AsRef<Path>) -> Result<Self, MapError> {
         let path = path.as_ref();
         match MapFormat::from_path(path)? {
@@ -554,6 +596,22 @@ impl CliffMap {
     /// flows (east-west along the hall, north-south across it) and a mixed crossing.
     pub fn demo() -> Self {
         demo::demo_map()
+    }
+
+    /// The speed prior learned with the map (`cliff map build` fits one from its
+    /// tracks and snapshots keep it; the published CSV format has no place for it).
+    pub fn speed_prior(&self) -> Option<SpeedPrior> {
+        self.speed_prior
+    }
+
+    /// Attach a speed prior (checked: the error says which value is wrong), or remove
+    /// it with `None`.
+    pub fn set_speed_prior(&mut self, prior: Option<SpeedPrior>) -> Result<(), MapError> {
+        if let Some(p) = &prior {
+            p.validate().map_err(MapError::SpeedPrior)?;
+        }
+        self.speed_prior = prior;
+        Ok(())
     }
 
     /// The locations, in the order they were given.
@@ -710,6 +768,60 @@ impl CliffMap {
         DirectionSampler {
             table: &self.table[a..b],
         }
+    }
+
+    /// A direction draw at location `index` that favours the components going the way
+    /// the walker heads (unit vector `(ux, uy)`): component `j` is chosen with
+    /// probability proportional to `w_j exp(-kappa (1 - cos(heading - mu_j)))`, the
+    /// posterior of the component given a heading observed with a von Mises likelihood
+    /// of concentration `kappa`; the direction is then drawn from that component as in
+    /// [`direction_at`](Self::direction_at) (one uniform and one normal draw, unwrapped).
+    /// `kappa = 0` chooses by weight alone, like `direction_at` (up to the rounding of the
+    /// cumulative weights).
+    ///
+    /// ```
+    /// use cliff::map::{CliffMap, Component, Location};
+    /// use glam::DVec2;
+    /// use rand::SeedableRng;
+    /// // one location, two equal flows: east and west
+    /// let c = |theta: f64| Component { theta, rho: 1.0, cov: [0.01, 0.0, 0.0, 0.01], weight: 0.5 };
+    /// let loc = Location { position: DVec2::ZERO, components: vec![c(0.0), c(std::f64::consts::PI)], motion_ratio: 1.0, observation_ratio: 1.0 };
+    /// let map = CliffMap::new(vec![loc]).unwrap();
+    /// let mut rng = rand_xoshiro::Xoshiro256PlusPlus::seed_from_u64(1);
+    /// // a walker heading east keeps to the eastward flow
+    /// let east = (0..1000).filter(|_| map.direction_following(0, 1.0, 0.0, 4.0, &mut rng).cos() > 0.0).count();
+    /// assert!(east > 990);
+    /// ```
+    #[inline]
+    pub fn direction_following<R: Rng + ?Sized>(
+        &self,
+        index: usize,
+        ux: f64,
+        uy: f64,
+        kappa: f64,
+        rng: &mut R,
+    ) -> f64 {
+        use crate::predict::fastmath::exp_neg;
+        let a = self.comp_start[index] as usize;
+        let b = self.comp_start[index + 1] as usize;
+        let follow = &self.follow[a..b];
+        let mut cum = [0.0f64; MAX_COMPONENTS];
+        let mut total = 0.0;
+        for (j, c) in follow.iter().enumerate() {
+            let cos = ux * c.cos_mu + uy * c.sin_mu;
+            total += c.weight * exp_neg(-kappa * (1.0 - cos));
+            cum[j] = total;
+        }
+        let u: f64 = rng.random::<f64>() * total;
+        // the number of cumulative weights at or below u (padding repeats the last)
+        let i = cum[..follow.len()]
+            .iter()
+            .map(|&c| (u >= c) as usize)
+            .sum::<usize>()
+            .min(follow.len() - 1);
+        let c = &self.table[a + i];
+        let z: f64 = StandardNormal.sample(rng);
+        c.mu + c.sigma * z
     }
 
     /// A velocity draw at location `index`: a component by weight, a direction from its

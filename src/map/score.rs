@@ -19,8 +19,8 @@
 use rayon::prelude::*;
 use serde::Serialize;
 
-use super::CliffMap;
 use super::build::{BuildError, Gauss2, Observation, check_observations, floor_eigenvalues};
+use super::{CliffMap, MapSet};
 
 /// Options of [`score`].
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -158,8 +158,54 @@ pub fn score(
         .par_iter()
         .map(|o| scorer.log_likelihood(o))
         .collect();
+    Ok(summarise(obs.len(), lls, params))
+}
+
+/// Score a time-of-day set on `obs`, each observation under the map of its time
+/// (`times[i]` for `obs[i]`, the data's clock; see [`MapSet::at`]). For a set without
+/// slices, the same as [`score`] with its map.
+pub fn score_set(
+    set: &MapSet,
+    obs: &[Observation],
+    times: &[f64],
+    params: &ScoreParams,
+) -> Result<ScoreReport, BuildError> {
+    check_observations(obs)?;
+    if times.len() != obs.len() {
+        return Err(BuildError::InvalidParam(format!(
+            "{} timestamps for {} observations",
+            times.len(),
+            obs.len()
+        )));
+    }
+    // One scorer per map: the all-day map's first, then each slice's (or the all-day's).
+    let day = Scorer::new(set.all_day(), params)?;
+    let slices: Vec<Option<Scorer<'_>>> = set
+        .slices()
+        .iter()
+        .map(|m| m.as_deref().map(|m| Scorer::new(m, params)).transpose())
+        .collect::<Result<_, _>>()?;
+    let lls: Vec<Option<f64>> = obs
+        .par_iter()
+        .zip(times)
+        .filter(|(o, _)| o.rho > 0.0)
+        .map(|(o, &t)| {
+            let scorer = set
+                .slice_index(t)
+                .and_then(|k| slices[k].as_ref())
+                .unwrap_or(&day);
+            scorer.log_likelihood(o)
+        })
+        .collect();
+    Ok(summarise(obs.len(), lls, params))
+}
+
+/// The report from the log-likelihoods of the moving observations (`None`: unmatched)
+/// out of `all` observations.
+fn summarise(all: usize, lls: Vec<Option<f64>>, params: &ScoreParams) -> ScoreReport {
+    let moving = lls.len();
     let mut matched: Vec<f64> = lls.iter().flatten().copied().collect();
-    let unmatched = moving.len() - matched.len();
+    let unmatched = moving - matched.len();
     let n = matched.len();
     let mean = matched.iter().sum::<f64>() / n as f64;
     let bad = matched.iter().filter(|&&l| l < params.bad_below).count();
@@ -171,9 +217,9 @@ pub fn score(
     } else {
         0.5 * (matched[n / 2 - 1] + matched[n / 2])
     };
-    Ok(ScoreReport {
-        observations: moving.len(),
-        standing: obs.len() - moving.len(),
+    ScoreReport {
+        observations: moving,
+        standing: all - moving,
         unmatched,
         mean_log_likelihood: mean,
         median_log_likelihood: median,
@@ -184,5 +230,5 @@ pub fn score(
         },
         bad_below: params.bad_below,
         radius: params.radius,
-    })
+    }
 }

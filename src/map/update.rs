@@ -517,7 +517,7 @@ fn update_node(s: &mut NodeState, x: &[[f64; 2]], p: &UpdateParams) -> NodeChang
 }
 
 /// Bhattacharyya distance between two components.
-fn bhattacharyya(a: &Component, b: &Component) -> f64 {
+pub(crate) fn bhattacharyya(a: &Component, b: &Component) -> f64 {
     let d = [wrap_pi(b.theta - a.theta), b.rho - a.rho];
     let m = [
         0.5 * (a.cov[0] + b.cov[0]),
@@ -535,7 +535,7 @@ fn bhattacharyya(a: &Component, b: &Component) -> f64 {
 }
 
 /// Moment-matched merge of two components (weights add).
-fn merge(a: &Component, b: &Component) -> Component {
+pub(crate) fn merge(a: &Component, b: &Component) -> Component {
     let w = a.weight + b.weight;
     let (fa, fb) = if w > 0.0 {
         (a.weight / w, b.weight / w)

@@ -24,6 +24,9 @@ use glam::DVec2;
 
 use crate::map::wrap_2pi;
 
+mod speed_prior;
+pub use speed_prior::{FIT_HORIZONS, MAX_PRIOR_SPEED, MIN_PAIRS, SpeedPrior};
+
 /// The reference's velocity kernel width.
 pub const DEFAULT_SIGMA: f64 = 1.5;
 

@@ -21,6 +21,19 @@
 //!   over all headings and speeds of 0 to 2 m/s. Scores compare samples of the same
 //!   call; [`TrajectoryBatch::best_sample`] picks the most likely.
 //!
+//! * **Follow** ([`Options::follow`] > 0): at each step the component is chosen by its
+//!   weight times a von Mises likelihood of the walker's heading,
+//!   `w_j exp(-follow (1 - cos(heading - mu_j)))` ([`CliffMap::direction_following`]):
+//!   a walker keeps to the flows going its way instead of jumping to a crossing one.
+//! * **Candidates** ([`Options::candidates`] > 1): each agent's samples are the best
+//!   `k` of `candidates x k` drawn ones: those that reach furthest (the paper's rule
+//!   stops a sample where the map has no data), then the highest-scored. Costs
+//!   `candidates` times the work ([`Options::cost_factor`]).
+//! * **Speed prior** ([`Options::speed_prior`]): the start speed regresses to the
+//!   typical speed of the map's walkers with the map's
+//!   [`SpeedPrior`](crate::motion::SpeedPrior) (`cliff map build` learns one; a map
+//!   without one leaves the speed as observed).
+//!
 //! The draws: with the speed kernel, each live sample's draw takes one uniform and two
 //! normals (direction, then speed) instead of one uniform and one normal; coasting
 //! samples draw nothing. Scores draw nothing.
@@ -33,7 +46,7 @@
 //!
 //! let map = CliffMap::demo();
 //! let walker = State { position: DVec2::new(-10.0, 0.5), speed: 1.2, heading: 0.0, time: 0.0 };
-//! let opts = Options { speed_beta: 2.0, coast: 4.0, scores: true };
+//! let opts = Options { speed_beta: 2.0, coast: 4.0, scores: true, ..Options::default() };
 //! let mut batch = TrajectoryBatch::new();
 //! predict_with(&map, &[walker], &Params::default(), &opts, &mut batch).unwrap();
 //! let best = batch.best_sample(0).unwrap();
@@ -58,12 +71,38 @@ pub struct Options {
     pub coast: f64,
     /// Compute a score per sample ([`TrajectoryBatch::scores`]).
     pub scores: bool,
+    /// Concentration of the heading likelihood that weighs the components at each
+    /// step (0: by weight alone, the paper; at most [`MAX_FOLLOW`]).
+    pub follow: f64,
+    /// Keep the best `k` of `candidates x k` samples per agent (0 or 1: draw `k`, the
+    /// paper; at most [`MAX_CANDIDATES`]).
+    pub candidates: u32,
+    /// Start from the speed the map's speed prior gives for the observed one.
+    pub speed_prior: bool,
 }
+
+/// Largest [`Options::follow`]: beyond it a heading's likelihood under a component
+/// 180 degrees away underflows towards zero and nothing changes.
+pub const MAX_FOLLOW: f64 = 100.0;
+
+/// Largest [`Options::candidates`].
+pub const MAX_CANDIDATES: u32 = 16;
 
 impl Options {
     /// True when every option is off: the paper's method.
     pub fn is_paper(&self) -> bool {
-        self.speed_beta == 0.0 && self.coast == 0.0 && !self.scores
+        self.speed_beta == 0.0
+            && self.coast == 0.0
+            && !self.scores
+            && self.follow == 0.0
+            && self.candidates <= 1
+            && !self.speed_prior
+    }
+
+    /// How many times the paper's work a call with these options does (the samples
+    /// drawn per kept sample: [`Options::candidates`], at least 1).
+    pub fn cost_factor(&self) -> usize {
+        self.candidates.max(1) as usize
     }
 
     /// Check the options; the error names the first unusable one.
@@ -78,6 +117,21 @@ impl Options {
             return Err(PredictError::Param {
                 name: "coast",
                 why: format!("{} is not a non-negative number of seconds", self.coast),
+            });
+        }
+        if !(self.follow.is_finite() && (0.0..=MAX_FOLLOW).contains(&self.follow)) {
+            return Err(PredictError::Param {
+                name: "follow",
+                why: format!("{} is not a number in [0, {MAX_FOLLOW}]", self.follow),
+            });
+        }
+        if self.candidates > MAX_CANDIDATES {
+            return Err(PredictError::Param {
+                name: "candidates",
+                why: format!(
+                    "{} candidates per sample, at most {MAX_CANDIDATES}",
+                    self.candidates
+                ),
             });
         }
         Ok(())
@@ -448,5 +502,138 @@ mod tests {
             &mut [],
         );
         assert!(matches!(e, Err(PredictError::Param { name: "scores", .. })));
+    }
+
+    /// Locations on a 1 m grid over x, y in [-30, 30], each with two equal flows: east
+    /// and north.
+    fn crossing() -> CliffMap {
+        let c = |theta: f64| Component {
+            theta,
+            rho: 1.0,
+            cov: [0.02, 0.0, 0.0, 0.01],
+            weight: 0.5,
+        };
+        let mut locs = vec![];
+        for ix in -30..=30 {
+            for iy in -30..=30 {
+                locs.push(Location {
+                    position: DVec2::new(ix as f64, iy as f64),
+                    components: vec![c(0.0), c(PI / 2.0)],
+                    motion_ratio: 1.0,
+                    observation_ratio: 1.0,
+                });
+            }
+        }
+        CliffMap::new(locs).unwrap()
+    }
+
+    #[test]
+    fn follow_keeps_a_walker_to_the_flow_going_its_way() {
+        let map = crossing();
+        let p = Params {
+            k: 200,
+            dt: 1.0,
+            horizon: 10.0,
+            radius: 1.0,
+            seed: 5,
+            ..Params::default()
+        };
+        let east = walker(0.0, 0.0, 0.0, 1.0);
+        let drift = |follow: f64| {
+            let mut b = TrajectoryBatch::new();
+            let o = Options {
+                follow,
+                ..Options::default()
+            };
+            predict_with(&map, &[east], &p, &o, &mut b).unwrap();
+            (0..p.k)
+                .map(|s| b.sample(0, s)[p.steps() - 1][1] as f64)
+                .sum::<f64>()
+                / p.k as f64
+        };
+        let (paper, follow) = (drift(0.0), drift(8.0));
+        // by weight alone half the draws pull north; following, few do
+        assert!(paper > 1.0, "paper drift {paper}");
+        assert!(follow < 0.5 * paper, "follow drift {follow}, paper {paper}");
+        // follow 0 is the paper's method, byte for byte
+        let mut a = TrajectoryBatch::new();
+        let mut b = TrajectoryBatch::new();
+        predict(&map, &[east], &p, &mut a).unwrap();
+        predict_with(&map, &[east], &p, &Options::default(), &mut b).unwrap();
+        assert_eq!(bits(&a), bits(&b));
+    }
+
+    #[test]
+    fn the_speed_prior_sets_the_start_speed() {
+        use crate::motion::SpeedPrior;
+        let mut map = flow(-5, 30, 0.0, 1.0);
+        let p = Params {
+            k: 4,
+            dt: 1.0,
+            horizon: 10.0,
+            radius: 1.0,
+            beta: 1.0,
+            ..Params::default()
+        };
+        let slow = walker(0.0, 0.0, 0.0, 0.4);
+        let on = Options {
+            speed_prior: true,
+            ..Options::default()
+        };
+        let x_after = |map: &CliffMap, o: &Options| {
+            let mut b = TrajectoryBatch::new();
+            predict_with(map, &[slow], &p, o, &mut b).unwrap();
+            b.sample(0, 0)[p.steps() - 1][0] as f64
+        };
+        // no prior on the map: the observed speed
+        assert!((x_after(&map, &on) - 4.0).abs() < 0.1);
+        map.set_speed_prior(Some(SpeedPrior {
+            mean: 1.2,
+            keep: 0.5,
+            pairs: 100,
+        }))
+        .unwrap();
+        // 1.2 + 0.5 (0.4 - 1.2) = 0.8 m/s for 10 s
+        assert!((x_after(&map, &on) - 8.0).abs() < 0.1);
+        assert!((x_after(&map, &Options::default()) - 4.0).abs() < 0.1);
+        // a bad prior is refused
+        let bad = SpeedPrior {
+            mean: -1.0,
+            keep: 0.5,
+            pairs: 1,
+        };
+        assert!(map.set_speed_prior(Some(bad)).is_err());
+    }
+
+    #[test]
+    fn bad_follow_and_candidates_are_refused() {
+        for (o, name) in [
+            (
+                Options {
+                    follow: -1.0,
+                    ..Options::default()
+                },
+                "follow",
+            ),
+            (
+                Options {
+                    follow: f64::NAN,
+                    ..Options::default()
+                },
+                "follow",
+            ),
+            (
+                Options {
+                    candidates: 17,
+                    ..Options::default()
+                },
+                "candidates",
+            ),
+        ] {
+            assert!(
+                matches!(o.validate(), Err(PredictError::Param { name: n, .. }) if n == name),
+                "{o:?}"
+            );
+        }
     }
 }

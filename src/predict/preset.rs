@@ -30,21 +30,42 @@ pub struct Preset {
 }
 
 /// The `improved` method ([`Method::Improved`]): CLiFF-LHMP with a heading kernel of
-/// beta 2 (turning towards sampled directions more reluctantly than the paper's beta 1;
-/// on ATC dev with a map from atc/train, mean ADE 4 % lower at 5 s, 3 % at 20 s, 1 % at
-/// 50 s) and a score per sample, so that callers that keep one prediction can take the
-/// most likely sample ([`TrajectoryBatch::best_sample`](super::TrajectoryBatch::best_sample)).
+/// beta 2 (turning towards sampled directions more reluctantly than the paper's 1) and
 ///
-/// Its content is set by the project's held-out experiments and may change between
-/// versions; `cliff` (the paper's method) stays as it is.
+/// * **follow 4** ([`Options::follow`]): the component drawn at each step is weighed by
+///   how well it agrees with the walker's heading, so samples keep to the flows going
+///   their way;
+/// * **5 candidates** ([`Options::candidates`]): the `k` samples kept are the best of
+///   `5 k` drawn, those that reach furthest and then the most likely under the map
+///   (five times the paper's work);
+/// * **the speed prior** ([`Options::speed_prior`]): the start speed regresses to the
+///   typical speed of the map's walkers ([`SpeedPrior`](crate::motion::SpeedPrior),
+///   which `cliff map build` learns from its tracks; a map without one keeps the
+///   observed speed);
+/// * **scores** ([`Options::scores`]): callers that keep one prediction take the most
+///   likely sample ([`TrajectoryBatch::best_sample`](super::TrajectoryBatch::best_sample)).
+///
+/// On ATC's held-out hours (atc/dev, map from atc/train, 10 seeds, the same people) its
+/// mean ADE is 16 % below the paper's at 5 s, 27 % at 20 s and 13 % at 50 s (README,
+/// "Beyond the paper"). Its content is set by the project's held-out experiments and may
+/// change between versions; `cliff` (the paper's method) stays as it is.
 pub const IMPROVED: Preset = Preset {
     beta: 2.0,
     options: Options {
         speed_beta: 0.0,
         coast: 0.0,
         scores: true,
+        follow: 4.0,
+        candidates: 5,
+        speed_prior: true,
     },
 };
+
+/// How many times the paper's work a call of `params` with `options` does (the
+/// preset's candidates for [`Method::Improved`]): what a daemon's cost limits count.
+pub fn cost_factor(params: &Params, options: &Options) -> usize {
+    resolve(params, options).1.cost_factor()
+}
 
 /// The CLiFF-LHMP parameters and options that `params` and `options` stand for: a
 /// preset method ([`Method::Improved`]) becomes [`Method::Cliff`] with the preset's
@@ -153,7 +174,8 @@ mod tests {
         let o = Options {
             speed_beta: 1.0,
             coast: 2.0,
-            scores: false,
+            follow: 1.0,
+            ..Options::default()
         };
         for method in [Method::Cliff, Method::Cvm] {
             let p = Params {

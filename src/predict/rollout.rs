@@ -17,7 +17,7 @@ use rand_xoshiro::Xoshiro256PlusPlus;
 use super::options::{NO_LOCATION_LOG_DENSITY, Options};
 use super::{BatchMut, HeadingRule, Method, Params, Point, PredictError, fastmath, preset};
 use crate::map::{CliffMap, Lookup, wrap_2pi};
-use crate::motion::State;
+use crate::motion::{SpeedPrior, State};
 
 /// Which neighbour-table path a [`Rollout`] takes for CLiFF-LHMP map lookups.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -78,6 +78,17 @@ pub struct Rollout {
     options: Options,
     tables: Tables,
     rng: Xoshiro256PlusPlus,
+    /// Buffers for [`Options::candidates`], grown once and reused.
+    scratch: Candidates,
+}
+
+/// The drawn candidates of one agent before the best `k` are kept.
+#[derive(Debug, Clone, Default)]
+struct Candidates {
+    tracks: Vec<Point>,
+    lens: Vec<u32>,
+    scores: Vec<f32>,
+    order: Vec<u32>,
 }
 
 impl Rollout {
@@ -93,6 +104,7 @@ impl Rollout {
             options,
             tables: Tables::Build,
             rng: Xoshiro256PlusPlus::seed_from_u64(params.seed),
+            scratch: Candidates::default(),
         })
     }
 
@@ -103,6 +115,20 @@ impl Rollout {
         options.validate()?;
         (self.params, self.options) = preset::resolve(&self.asked, &options);
         Ok(self)
+    }
+
+    /// Start over with `params` and `options`, as
+    /// `Rollout::new(params)?.with_options(options)?` would (checked, the generator
+    /// seeded from `params.seed`), keeping the neighbour-table path and the buffers grown
+    /// so far: a server that keeps one rollout per request slot allocates nothing per
+    /// request. On `Err` the rollout is unchanged.
+    pub fn restart(&mut self, params: &Params, options: Options) -> Result<(), PredictError> {
+        params.validate()?;
+        options.validate()?;
+        self.asked = *params;
+        (self.params, self.options) = preset::resolve(params, &options);
+        self.rng = Xoshiro256PlusPlus::seed_from_u64(params.seed);
+        Ok(())
     }
 
     /// The same rollout with another neighbour-table path.
@@ -167,6 +193,13 @@ impl Rollout {
         let extras = Extras {
             speed_beta: options.speed_beta,
             coast_steps: options.coast_steps(params.dt),
+            follow: options.follow,
+            candidates: options.candidates.max(1) as usize,
+            speed_prior: if options.speed_prior {
+                map.speed_prior()
+            } else {
+                None
+            },
         };
         let lookup = match (params.method, scores.is_some(), self.tables) {
             // constant velocity looks the map up only for scores
@@ -182,6 +215,7 @@ impl Rollout {
             rng,
             out,
             scores,
+            scratch: &mut self.scratch,
         };
         match lookup {
             None => call.cvm(|_: DVec2| None::<usize>),
@@ -233,6 +267,10 @@ struct Extras {
     speed_beta: f64,
     /// Positions a sample may coast off the map.
     coast_steps: u32,
+    follow: f64,
+    /// Samples drawn per kept sample (at least 1).
+    candidates: usize,
+    speed_prior: Option<SpeedPrior>,
 }
 
 /// One call's inputs and outputs, for the flavour dispatch.
@@ -244,6 +282,7 @@ struct Call<'a, 'b> {
     rng: &'a mut Xoshiro256PlusPlus,
     out: BatchMut<'b>,
     scores: Option<&'b mut [f32]>,
+    scratch: &'a mut Candidates,
 }
 
 impl Call<'_, '_> {
@@ -253,8 +292,11 @@ impl Call<'_, '_> {
         if self.params.method == Method::Cvm {
             return self.cvm(near);
         }
-        let motion = self.extras.speed_beta > 0.0 || self.extras.coast_steps > 0;
-        match (motion, self.scores.is_some()) {
+        let motion =
+            self.extras.speed_beta > 0.0 || self.extras.coast_steps > 0 || self.extras.follow > 0.0;
+        // candidates are ranked by their scores
+        let scores = self.scores.is_some() || self.extras.candidates > 1;
+        match (motion, scores) {
             (false, false) => self.cliff::<false, false>(near),
             (false, true) => self.cliff::<false, true>(near),
             (true, false) => self.cliff::<true, false>(near),
@@ -280,7 +322,7 @@ impl Call<'_, '_> {
     }
 
     /// Roll every CLiFF-LHMP sample of every agent in the flavour `MOTION` (speed
-    /// kernel or coasting on), `SCORES` (scores on).
+    /// kernel, coasting or follow on), `SCORES` (scores on, or candidates to rank).
     fn cliff<const MOTION: bool, const SCORES: bool>(self, near: impl Fn(DVec2) -> Option<usize>) {
         let Call {
             map,
@@ -290,36 +332,71 @@ impl Call<'_, '_> {
             rng,
             out,
             mut scores,
+            scratch,
         } = self;
         let steps = params.steps();
         let k = params.k;
+        let c = extras.candidates;
+        if c > 1 {
+            scratch.tracks.resize(c * k * steps, [0.0; 2]);
+            scratch.lens.resize(c * k, 0);
+            scratch.scores.resize(c * k, 0.0);
+            scratch.order.resize(c * k, 0);
+        }
         for (a, state) in agents.iter().enumerate() {
+            let state = &match extras.speed_prior {
+                Some(prior) => State {
+                    speed: prior.apply(state.speed),
+                    ..*state
+                },
+                None => *state,
+            };
+            let lanes = Lanes {
+                map,
+                near: &near,
+                state,
+                params,
+                extras,
+            };
             let tracks = &mut out.positions[a * k * steps..(a + 1) * k * steps];
             let lens = &mut out.lens[a * k..(a + 1) * k];
-            for (g, (tracks, lens)) in tracks
-                .chunks_mut(MAX_LANES * steps)
-                .zip(lens.chunks_mut(MAX_LANES))
-                .enumerate()
-            {
-                let n = lens.len();
-                let first = a * k + g * MAX_LANES;
-                let group_scores: &mut [f32] = match scores.as_deref_mut() {
-                    Some(s) if SCORES => &mut s[first..first + n],
-                    _ => &mut [],
-                };
-                let lanes = Lanes {
-                    map,
-                    near: &near,
-                    state,
-                    params,
-                    extras,
-                };
-                match n {
-                    1..=4 => lanes.roll::<4, MOTION, SCORES>(rng, tracks, lens, group_scores),
-                    5..=8 => lanes.roll::<8, MOTION, SCORES>(rng, tracks, lens, group_scores),
-                    9..=12 => lanes.roll::<12, MOTION, SCORES>(rng, tracks, lens, group_scores),
-                    13..=16 => lanes.roll::<16, MOTION, SCORES>(rng, tracks, lens, group_scores),
-                    _ => lanes.roll::<MAX_LANES, MOTION, SCORES>(rng, tracks, lens, group_scores),
+            let agent_scores = scores.as_deref_mut().map(|s| &mut s[a * k..(a + 1) * k]);
+            if c == 1 {
+                lanes.roll_agent::<MOTION, SCORES>(
+                    rng,
+                    tracks,
+                    lens,
+                    agent_scores.unwrap_or(&mut []),
+                );
+                continue;
+            }
+            lanes.roll_agent::<MOTION, true>(
+                rng,
+                &mut scratch.tracks,
+                &mut scratch.lens,
+                &mut scratch.scores,
+            );
+            // keep the k that reach furthest, then the highest-scored (ties: drawn first)
+            let (cl, cs) = (&scratch.lens, &scratch.scores);
+            for (i, o) in scratch.order.iter_mut().enumerate() {
+                *o = i as u32;
+            }
+            scratch.order.sort_unstable_by(|&x, &y| {
+                let (x, y) = (x as usize, y as usize);
+                cl[y]
+                    .cmp(&cl[x])
+                    .then(cs[y].total_cmp(&cs[x]))
+                    .then(x.cmp(&y))
+            });
+            for (s, &i) in scratch.order[..k].iter().enumerate() {
+                let i = i as usize;
+                tracks[s * steps..(s + 1) * steps]
+                    .copy_from_slice(&scratch.tracks[i * steps..(i + 1) * steps]);
+                lens[s] = scratch.lens[i];
+            }
+            if let Some(out_scores) = agent_scores {
+                for (s, &i) in scratch.order[..k].iter().enumerate() {
+                    out_scores[s] = scratch.scores[i as usize];
                 }
             }
         }
@@ -382,6 +459,37 @@ struct Lanes<'a, F> {
 }
 
 impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
+    /// All samples of one agent (`lens.len()` of them), in groups of up to
+    /// [`MAX_LANES`].
+    fn roll_agent<const MOTION: bool, const SCORES: bool>(
+        &self,
+        rng: &mut Xoshiro256PlusPlus,
+        tracks: &mut [Point],
+        lens: &mut [u32],
+        scores: &mut [f32],
+    ) {
+        let steps = tracks.len() / lens.len().max(1);
+        for (g, (tracks, lens)) in tracks
+            .chunks_mut(MAX_LANES * steps)
+            .zip(lens.chunks_mut(MAX_LANES))
+            .enumerate()
+        {
+            let n = lens.len();
+            let group_scores: &mut [f32] = if SCORES {
+                &mut scores[g * MAX_LANES..g * MAX_LANES + n]
+            } else {
+                &mut []
+            };
+            match n {
+                1..=4 => self.roll::<4, MOTION, SCORES>(rng, tracks, lens, group_scores),
+                5..=8 => self.roll::<8, MOTION, SCORES>(rng, tracks, lens, group_scores),
+                9..=12 => self.roll::<12, MOTION, SCORES>(rng, tracks, lens, group_scores),
+                13..=16 => self.roll::<16, MOTION, SCORES>(rng, tracks, lens, group_scores),
+                _ => self.roll::<MAX_LANES, MOTION, SCORES>(rng, tracks, lens, group_scores),
+            }
+        }
+    }
+
     /// Up to `N` CLiFF-LHMP samples of one agent: `tracks` holds `lens.len()` samples of
     /// `steps` positions each, `scores` (with `SCORES`) their scores. `N` is a multiple
     /// of four.
@@ -417,6 +525,7 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
         let dt = params.dt;
         let dist = state.speed * dt;
         let with_speed = MOTION && extras.speed_beta > 0.0;
+        let with_follow = MOTION && extras.follow > 0.0;
         let coast_steps = if MOTION { extras.coast_steps } else { 0 };
         let theta0 = wrap_2pi(state.heading);
         let (s0, c0) = fastmath::sin_cos(theta0);
@@ -451,6 +560,9 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
                     drawing[l] = true;
                     if with_speed {
                         (ts[l], rs[l]) = map.velocity_at(loc[l], rng);
+                    } else if with_follow {
+                        let (hx, hy) = (ux[l] as f64, uy[l] as f64);
+                        ts[l] = map.direction_following(loc[l], hx, hy, extras.follow, rng);
                     } else {
                         ts[l] = map.direction_at(loc[l]).sample_unwrapped(rng);
                     }
@@ -628,6 +740,13 @@ mod tests {
                     speed_beta: 2.0,
                     coast: 2.0,
                     scores: true,
+                    ..Options::default()
+                },
+                Options {
+                    follow: 4.0,
+                    candidates: 3,
+                    scores: true,
+                    ..Options::default()
                 },
             ] {
                 let mut whole = TrajectoryBatch::new();
@@ -684,6 +803,133 @@ mod tests {
                         assert!(scores.iter().all(|s| s.is_nan()), "{what}");
                     }
                 }
+            }
+        }
+    }
+
+    #[test]
+    fn a_restarted_rollout_predicts_as_a_new_one() {
+        let (map, agents) = thor_agents();
+        let n = agents.len();
+        let first = Params {
+            k: 6,
+            seed: 1,
+            ..Params::default()
+        };
+        let improved = Params {
+            method: Method::Improved,
+            k: 5,
+            seed: 8,
+            ..Params::default()
+        };
+        let asked = [
+            (first, Options::default()),
+            (
+                improved,
+                Options {
+                    coast: 3.0,
+                    ..Options::default()
+                },
+            ),
+            (
+                Params {
+                    method: Method::Cliff,
+                    ..improved
+                },
+                Options {
+                    speed_beta: 2.0,
+                    candidates: 4,
+                    scores: true,
+                    ..Options::default()
+                },
+            ),
+        ];
+        let mut rollout = Rollout::new(&first)
+            .unwrap()
+            .with_tables(Tables::CachedOnly);
+        for (params, options) in asked {
+            rollout.restart(&params, options).unwrap();
+            let mut whole = TrajectoryBatch::new();
+            predict_with(&map, &agents, &params, &options, &mut whole).unwrap();
+            let mut again = TrajectoryBatch::new();
+            again.reshape(n, params.k, params.steps());
+            let mut scores = vec![0.0f32; n * params.k];
+            rollout
+                .predict_agents(&map, &agents, again.as_mut(), Some(&mut scores))
+                .unwrap();
+            assert_eq!(again.lens(), whole.lens(), "{params:?} {options:?}");
+            assert!(
+                whole
+                    .positions()
+                    .iter()
+                    .zip(again.positions())
+                    .all(|(a, b)| a.map(f32::to_bits) == b.map(f32::to_bits)),
+                "{params:?} {options:?}"
+            );
+            if !whole.scores().is_empty() {
+                assert_eq!(whole.scores(), &scores[..]);
+            }
+        }
+        // a bad restart leaves the rollout as it was
+        let before = rollout.clone();
+        let bad = Options {
+            coast: -1.0,
+            ..Options::default()
+        };
+        assert!(rollout.restart(&first, bad).is_err());
+        assert_eq!(
+            (rollout.params(), rollout.options()),
+            (before.params(), before.options())
+        );
+    }
+
+    #[test]
+    fn candidates_keep_the_furthest_reaching_then_best_scored_of_the_draws() {
+        let (map, agents) = thor_agents();
+        for (k, c) in [(5usize, 4u32), (20, 3), (7, 16)] {
+            let params = Params {
+                k,
+                seed: 11,
+                ..Params::default()
+            };
+            let opts = Options {
+                follow: 2.0,
+                scores: true,
+                ..Options::default()
+            };
+            // the same draws: all c x k candidates, scored
+            let mut all = TrajectoryBatch::new();
+            let wide = Params {
+                k: k * c as usize,
+                ..params
+            };
+            predict_with(&map, &agents, &wide, &opts, &mut all).unwrap();
+            let mut kept = TrajectoryBatch::new();
+            let with = Options {
+                candidates: c,
+                ..opts
+            };
+            predict_with(&map, &agents, &params, &with, &mut kept).unwrap();
+            for a in 0..agents.len() {
+                let mut idx: Vec<usize> = (0..wide.k).collect();
+                idx.sort_by(|&x, &y| {
+                    let (lx, ly) = (all.len(a, x), all.len(a, y));
+                    let (sx, sy) = (all.score(a, x).unwrap(), all.score(a, y).unwrap());
+                    ly.cmp(&lx).then(sy.total_cmp(&sx)).then(x.cmp(&y))
+                });
+                for (s, &i) in idx[..k].iter().enumerate() {
+                    let bits = |b: &TrajectoryBatch, s: usize| -> Vec<[u32; 2]> {
+                        b.sample(a, s).iter().map(|p| p.map(f32::to_bits)).collect()
+                    };
+                    assert_eq!(bits(&kept, s), bits(&all, i), "k {k} c {c} agent {a}");
+                    assert_eq!(kept.len(a, s), all.len(a, i));
+                    assert_eq!(kept.score(a, s), all.score(a, i));
+                }
+                // kept samples reach at least as far as the others on average
+                let mean = |b: &TrajectoryBatch, n: usize| {
+                    (0..n).map(|s| b.len(a, s) as f64).sum::<f64>() / n as f64
+                };
+                assert!(mean(&kept, k) >= mean(&all, wide.k));
             }
         }
     }

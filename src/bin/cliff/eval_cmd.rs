@@ -13,10 +13,12 @@ use cliff::eval::{
     EvalConfig, evaluate, person_seed, summary_table, table_horizons, write_reports,
 };
 use cliff::map::CliffMap;
+use cliff::map::timeofday::slice_label;
 use cliff::predict::{HeadingRule, Method, Options, Params, TrajectoryBatch, predict_with};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 
-use crate::map_cmd::load_map;
+use crate::clock;
+use crate::map_cmd::load_map_set;
 
 /// Protocol and prediction parameters shared by `eval` and `predict`.
 #[derive(Args, Debug, Clone)]
@@ -69,6 +71,21 @@ pub struct PredictionArgs {
     /// the paper); 0 stops it there (the paper).
     #[arg(long, default_value_t = 0.0, value_parser = non_negative)]
     pub coast: f64,
+    /// Follow (beyond the paper): choose the map component at each step by its weight
+    /// times `exp(-follow (1 - cos(heading - its direction)))`, so that a walker keeps
+    /// to the flows going its way; 0 chooses by weight alone (the paper).
+    #[arg(long, default_value_t = 0.0, value_parser = non_negative)]
+    pub follow: f64,
+    /// Candidates (beyond the paper): draw this many times `k` samples per person and
+    /// keep the `k` that reach furthest, then the highest-scored; costs as many times
+    /// the work. 1 draws `k` (the paper).
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=16))]
+    pub candidates: u32,
+    /// Speed prior (beyond the paper): start from the speed the map's speed prior
+    /// (learned by `cliff map build`) gives for the observed one; maps without a prior
+    /// keep the observed speed.
+    #[arg(long)]
+    pub speed_prior: bool,
 }
 
 fn non_negative(s: &str) -> Result<f64, String> {
@@ -114,6 +131,9 @@ impl PredictionArgs {
             speed_beta: self.speed_beta,
             coast: self.coast,
             scores,
+            follow: self.follow,
+            candidates: self.candidates,
+            speed_prior: self.speed_prior,
         }
     }
 
@@ -134,9 +154,15 @@ impl PredictionArgs {
 /// Arguments of `cliff eval`.
 #[derive(Args, Debug)]
 pub struct EvalArgs {
-    /// Map file (.csv or .cliff); omit for the built-in demo scene.
+    /// Map file (.csv or .cliff); omit for the built-in demo scene. With a time-of-day
+    /// set (`cliff map build --slice`), each person is predicted with the map of the
+    /// slice of their last observed row's time (plus the clock offset).
     #[arg(long)]
     pub map: Option<PathBuf>,
+    /// Seconds added to the tracks' timestamps to get the local time of day that picks
+    /// a set's slice (+9h, 32400, -5h); default: the offset stored in the set.
+    #[arg(long, value_name = "DURATION", value_parser = clock::signed_duration, allow_hyphen_values = true)]
+    pub clock_offset: Option<f64>,
     /// Trajectory files to evaluate on.
     #[arg(long, required = true, num_args = 1..)]
     pub tracks: Vec<PathBuf>,
@@ -163,9 +189,14 @@ pub struct EvalArgs {
 /// Arguments of `cliff predict`.
 #[derive(Args, Debug)]
 pub struct PredictArgs {
-    /// Map file (.csv or .cliff); omit for the built-in demo scene.
+    /// Map file (.csv or .cliff); omit for the built-in demo scene. With a time-of-day
+    /// set, the map of the slice of the person's last observed row's time.
     #[arg(long)]
     pub map: Option<PathBuf>,
+    /// Seconds added to the tracks' timestamps to get the local time of day that picks
+    /// a set's slice; default: the offset stored in the set.
+    #[arg(long, value_name = "DURATION", value_parser = clock::signed_duration, allow_hyphen_values = true)]
+    pub clock_offset: Option<f64>,
     /// Trajectory file holding the person.
     #[arg(long)]
     pub tracks: PathBuf,
@@ -257,7 +288,7 @@ pub fn run_eval(a: EvalArgs) -> Result<()> {
     if a.methods.is_empty() {
         bail!("--methods names no method");
     }
-    let map = load_map(a.map.as_ref())?;
+    let maps = load_map_set(a.map.as_ref(), a.clock_offset)?;
     let tracks = load_tracks_with(&a.tracks, a.format, &a.read)?;
     let cfg = EvalConfig {
         settings: a.prediction.settings(),
@@ -268,7 +299,7 @@ pub fn run_eval(a: EvalArgs) -> Result<()> {
     };
     let progress = LateProgress::new(tracks.len() as u64, "evaluating");
     let t0 = Instant::now();
-    let report = evaluate(&map, &tracks, &cfg, &|| progress.tick()).context("evaluation")?;
+    let report = evaluate(&maps, &tracks, &cfg, &|| progress.tick()).context("evaluation")?;
     progress.bar.finish_and_clear();
     println!(
         "{} of {} people evaluated ({} protocol, {} seed(s), {:.1} s)",
@@ -324,7 +355,7 @@ pub(crate) fn predict_case(
 
 /// Run `cliff predict`.
 pub fn run_predict(a: PredictArgs) -> Result<()> {
-    let map = load_map(a.map.as_ref())?;
+    let maps = load_map_set(a.map.as_ref(), a.clock_offset)?;
     let tracks = load_tracks_with(std::slice::from_ref(&a.tracks), a.format, &a.read)?;
     let track = tracks
         .iter()
@@ -338,7 +369,8 @@ pub fn run_predict(a: PredictArgs) -> Result<()> {
         )
     })?;
     let mut batch = TrajectoryBatch::new();
-    let params = predict_case(&map, &case, &a.prediction, a.method, a.seed, &mut batch)?;
+    let map = maps.at(case.start.time);
+    let params = predict_case(map, &case, &a.prediction, a.method, a.seed, &mut batch)?;
     // score: the sample's log-likelihood under the map (the same on each of its rows)
     let mut out = String::from("sample,step,t,x,y,score\n");
     use std::fmt::Write as _;
@@ -361,8 +393,20 @@ pub fn run_predict(a: PredictArgs) -> Result<()> {
             let reached = (0..params.k)
                 .filter(|&s| batch.len(0, s) == case.steps)
                 .count();
+            let slice = match maps.slice_index(case.start.time) {
+                Some(k) => format!(
+                    " (slice {}{})",
+                    slice_label(k, maps.slice_length()),
+                    if maps.slices()[k].is_none() {
+                        ": the all-day map"
+                    } else {
+                        ""
+                    }
+                ),
+                None => String::new(),
+            };
             println!(
-                "person {}: start ({:.2}, {:.2}) at t {:.2}, speed {:.2} m/s, heading {:.1} deg; {} samples of {} steps ({} reach the end, the most likely is sample {}); wrote {}",
+                "person {}: start ({:.2}, {:.2}) at t {:.2}{slice}, speed {:.2} m/s, heading {:.1} deg; {} samples of {} steps ({} reach the end, the most likely is sample {}); wrote {}",
                 case.id,
                 case.start.position.x,
                 case.start.position.y,

@@ -2,6 +2,7 @@
 //!
 //! A thin layer over the `cliff` library: each subcommand group lives in its own module.
 
+mod clock;
 mod demo_cmd;
 mod eval_cmd;
 mod map_build_cmd;

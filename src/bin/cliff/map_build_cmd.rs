@@ -5,16 +5,20 @@ use std::time::Instant;
 
 use anyhow::{Context, Result, bail};
 use clap::Args;
-use cliff::eval::dataset::Format;
+use cliff::eval::dataset::{Format, Track};
 use cliff::map::CliffMap;
 use cliff::map::build::{
     BuildParams, EmParams, FitParams, MeanShift, Observation, build_map_with_progress,
-    observations_from_tracks,
+    observations_from_tracks, timed_observations_from_tracks,
 };
-use cliff::map::score::{ScoreParams, score as score_map};
+use cliff::map::score::{ScoreParams, score as score_map, score_set};
+use cliff::map::timeofday::build_map_set_with_progress;
 use cliff::map::update::{OnlineMap, UpdateParams};
+use cliff::map::{MapFormat, SliceParams, Smoothing};
+use cliff::motion::SpeedPrior;
 use indicatif::{ProgressBar, ProgressStyle};
 
+use crate::clock;
 use crate::eval_cmd::{ReadArgs, load_tracks_with};
 
 /// Trajectory input shared by the learning commands.
@@ -35,14 +39,24 @@ fn parse_format(s: &str) -> Result<Format, String> {
 }
 
 impl TrackArgs {
-    fn observations(&self) -> Result<Vec<Observation>> {
+    fn observations(&self) -> Result<(Vec<Observation>, Vec<Track>)> {
         let tracks = load_tracks_with(&self.tracks, self.format, &self.read)
             .context("reading trajectories")?;
         let obs = observations_from_tracks(&tracks);
         if obs.is_empty() {
             bail!("the trajectory files hold no rows");
         }
-        Ok(obs)
+        Ok((obs, tracks))
+    }
+
+    fn timed_observations(&self) -> Result<(Vec<Observation>, Vec<f64>, Vec<Track>)> {
+        let tracks = load_tracks_with(&self.tracks, self.format, &self.read)
+            .context("reading trajectories")?;
+        let (obs, times) = timed_observations_from_tracks(&tracks);
+        if obs.is_empty() {
+            bail!("the trajectory files hold no rows");
+        }
+        Ok((obs, times, tracks))
     }
 }
 
@@ -80,6 +94,35 @@ pub struct BuildArgs {
     /// Worker threads (0: all cores).
     #[arg(long, default_value_t = 0)]
     pub threads: usize,
+    /// Build a time-of-day map set: the all-day map and one map per slice of the day of
+    /// this length (1h, 30min, 7200; it must divide the day), each slice smoothed
+    /// towards its neighbours and the all-day map. The output must be a .cliff snapshot.
+    #[arg(long, value_name = "DURATION", value_parser = clock::duration)]
+    pub slice: Option<f64>,
+    /// Seconds added to the tracks' timestamps to get the local time of day that picks
+    /// the slice (stored in the set; ATC holds unix time in Japan: +9h or 32400).
+    #[arg(long, value_name = "DURATION", default_value = "0", value_parser = clock::signed_duration, allow_hyphen_values = true)]
+    pub clock_offset: f64,
+    /// How far in time a slice borrows from its neighbours: the width (standard
+    /// deviation) of the Gaussian kernel over slices (0: its own data only).
+    #[arg(long, value_name = "DURATION", default_value = "0", value_parser = clock::duration)]
+    pub slice_kernel: f64,
+    /// What the all-day map is worth at each location of a slice map, in observations
+    /// (the prior: a location the slice's data hardly visit keeps the all-day mixture).
+    #[arg(long, value_name = "N", default_value_t = Smoothing::default().prior_weight)]
+    pub slice_prior: f64,
+    /// Share of the all-day mixture in every slice mixture, whatever the slice's data
+    /// (0 to 1).
+    #[arg(long, value_name = "SHARE", default_value_t = Smoothing::default().all_day_share)]
+    pub slice_all_day: f64,
+    /// Most components per location of a slice map (near-duplicates are merged).
+    #[arg(long, value_name = "N", default_value_t = Smoothing::default().max_components)]
+    pub slice_max_components: usize,
+    /// Do not learn a speed prior (by default the map keeps how the tracks' speeds over
+    /// the next 10-50 s regress to their typical speed, for `--methods improved`;
+    /// stored in .cliff snapshots only).
+    #[arg(long)]
+    pub no_speed_prior: bool,
     /// No progress bar.
     #[arg(long)]
     pub quiet: bool,
@@ -137,10 +180,13 @@ fn with_threads<T: Send>(threads: usize, f: impl FnOnce() -> T + Send) -> Result
 
 /// Run `cliff map build`.
 pub fn build(a: BuildArgs) -> Result<()> {
+    if let Some(length) = a.slice {
+        return build_set(a, length);
+    }
     let params = a.params();
     params.check()?;
     let t0 = Instant::now();
-    let obs = a.input.observations()?;
+    let (obs, tracks) = a.input.observations()?;
     let t_read = t0.elapsed();
     let pb = progress_bar(a.quiet);
     let built = with_threads(a.threads, || {
@@ -153,12 +199,14 @@ pub fn build(a: BuildArgs) -> Result<()> {
     })??;
     pb.finish_and_clear();
     let t_fit = t0.elapsed() - t_read;
-    built
-        .map
-        .save(&a.out)
+    let mut map = built.map;
+    let prior = speed_prior(&a, &tracks)?;
+    map.set_speed_prior(prior)?;
+    map.save(&a.out)
         .with_context(|| format!("writing {}", a.out.display()))?;
     let s = built.summary;
     println!("wrote {}", a.out.display());
+    print_speed_prior(&a, prior);
     println!(
         "observations        {} ({} standing, not used)",
         s.observations, s.standing
@@ -185,12 +233,151 @@ pub fn build(a: BuildArgs) -> Result<()> {
     Ok(())
 }
 
+/// The speed prior of the map being built (none with `--no-speed-prior`, or when the
+/// tracks hold too few walkers).
+fn speed_prior(a: &BuildArgs, tracks: &[Track]) -> Result<Option<SpeedPrior>> {
+    if a.no_speed_prior {
+        return Ok(None);
+    }
+    Ok(SpeedPrior::fit_tracks(tracks))
+}
+
+fn print_speed_prior(a: &BuildArgs, prior: Option<SpeedPrior>) {
+    match prior {
+        Some(p) => {
+            let kept = if MapFormat::from_path(&a.out).ok() == Some(MapFormat::Csv) {
+                " (not in the CSV file: the published format has no place for it; write .cliff to keep it)"
+            } else {
+                ""
+            };
+            println!(
+                "speed prior         v = {:.3} + {:.3} (v0 - {:.3}) m/s, from {} pairs{kept}",
+                p.mean, p.keep, p.mean, p.pairs
+            );
+        }
+        None if a.no_speed_prior => println!("speed prior         none (--no-speed-prior)"),
+        None => println!(
+            "speed prior         none (fewer than {} walkers with 10 s ahead)",
+            cliff::motion::MIN_PAIRS
+        ),
+    }
+}
+
+/// `cliff map build --slice`: a time-of-day set.
+fn build_set(a: BuildArgs, slice_length: f64) -> Result<()> {
+    let params = a.params();
+    params.check()?;
+    if MapFormat::from_path(&a.out)? != MapFormat::Snapshot {
+        bail!(
+            "--out {}: a time-of-day set is written as a .cliff snapshot (a CSV file holds one map; `cliff map convert --slice` exports one)",
+            a.out.display()
+        );
+    }
+    let slicing = SliceParams {
+        slice_length,
+        clock_offset: a.clock_offset,
+        smoothing: Smoothing {
+            kernel_width: a.slice_kernel,
+            prior_weight: a.slice_prior,
+            all_day_share: a.slice_all_day,
+            max_components: a.slice_max_components,
+            ..Smoothing::default()
+        },
+    };
+    slicing.check()?;
+    let t0 = Instant::now();
+    let (obs, times, tracks) = a.input.timed_observations()?;
+    let t_read = t0.elapsed();
+    let pb = progress_bar(a.quiet);
+    let part = std::sync::Mutex::new(String::new());
+    let built = with_threads(a.threads, || {
+        build_map_set_with_progress(&obs, &times, &params, &slicing, &|name, total| {
+            let mut p = part.lock().unwrap_or_else(|e| e.into_inner());
+            if *p != name {
+                *p = name.to_string();
+                pb.set_message(format!("fitting {name}"));
+                pb.set_length(total as u64);
+                pb.set_position(0);
+            }
+            pb.inc(1);
+        })
+    })??;
+    pb.finish_and_clear();
+    let t_fit = t0.elapsed() - t_read;
+    let mut built = built;
+    let prior = speed_prior(&a, &tracks)?;
+    built.set.set_speed_prior(prior)?;
+    built
+        .set
+        .save(&a.out)
+        .with_context(|| format!("writing {}", a.out.display()))?;
+    let s = built.all_day.summary;
+    println!("wrote {}", a.out.display());
+    print_speed_prior(&a, prior);
+    println!(
+        "observations        {} ({} standing, not used)",
+        s.observations, s.standing
+    );
+    println!(
+        "all-day map         {} locations ({} components, {:.2} per location)",
+        s.locations,
+        s.components,
+        s.components as f64 / s.locations as f64
+    );
+    println!(
+        "slices              {} of {} s, clock offset {} s; kernel width {} s, prior {} observations, all-day share {}, at most {} components",
+        built.set.slices().len(),
+        slice_length,
+        a.clock_offset,
+        a.slice_kernel,
+        a.slice_prior,
+        a.slice_all_day,
+        a.slice_max_components
+    );
+    println!(
+        "{:<13} {:>12} {:>14} {:>10} {:>11}",
+        "slice", "observations", "own locations", "locations", "components"
+    );
+    for sl in built
+        .slices
+        .iter()
+        .filter(|sl| sl.observations > 0 || sl.locations > 0)
+    {
+        if sl.locations == 0 {
+            println!(
+                "{:<13} {:>12} {:>14}   (all-day map)",
+                sl.label, sl.observations, sl.own_locations
+            );
+        } else {
+            println!(
+                "{:<13} {:>12} {:>14} {:>10} {:>11}",
+                sl.label, sl.observations, sl.own_locations, sl.locations, sl.components
+            );
+        }
+    }
+    let without = built.slices.iter().filter(|sl| sl.locations == 0).count();
+    if without > 0 {
+        println!("({without} slices without data use the all-day map)");
+    }
+    println!(
+        "time                {:.2} s reading, {:.2} s fitting",
+        t_read.as_secs_f64(),
+        t_fit.as_secs_f64()
+    );
+    Ok(())
+}
+
 /// Options of `cliff map score`.
 #[derive(Args, Debug)]
 pub struct ScoreArgs {
-    /// Map to score (.csv or .cliff).
+    /// Map to score (.csv or .cliff). A time-of-day set scores each observation under
+    /// the map of its time's slice.
     #[arg(long, value_name = "MAP")]
     pub map: PathBuf,
+    /// Seconds added to the tracks' timestamps to get the local time of day that picks
+    /// a set's slice; default: the offset stored in the set.
+    #[arg(long, value_name = "DURATION", value_parser = clock::signed_duration, allow_hyphen_values = true)]
+    pub clock_offset: Option<f64>,
     #[command(flatten)]
     pub input: TrackArgs,
     /// An observation is scored at the nearest location strictly within this
@@ -204,13 +391,18 @@ pub struct ScoreArgs {
 
 /// Run `cliff map score`.
 pub fn score(a: ScoreArgs) -> Result<()> {
-    let map = CliffMap::load(&a.map).with_context(|| format!("loading map {}", a.map.display()))?;
-    let obs = a.input.observations()?;
+    let set = crate::map_cmd::load_map_set(Some(&a.map), a.clock_offset)?;
     let params = ScoreParams {
-        radius: a.radius.unwrap_or(map.grid().step()),
+        radius: a.radius.unwrap_or(set.all_day().grid().step()),
         ..ScoreParams::default()
     };
-    let r = score_map(&map, &obs, &params)?;
+    let r = if set.is_sliced() {
+        let (obs, times, _) = a.input.timed_observations()?;
+        score_set(&set, &obs, &times, &params)?
+    } else {
+        let (obs, _) = a.input.observations()?;
+        score_map(set.all_day(), &obs, &params)?
+    };
     if a.json {
         println!("{}", serde_json::to_string(&r)?);
     } else {
@@ -266,7 +458,7 @@ pub struct UpdateArgs {
 /// Run `cliff map update`.
 pub fn update(a: UpdateArgs) -> Result<()> {
     let map = CliffMap::load(&a.map).with_context(|| format!("loading map {}", a.map.display()))?;
-    let obs = a.input.observations()?;
+    let (obs, _) = a.input.observations()?;
     let params = UpdateParams {
         decay: a.decay,
         radius: a.radius,

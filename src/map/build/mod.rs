@@ -61,6 +61,17 @@ pub fn observations_from_tracks(tracks: &[Track]) -> Vec<Observation> {
         .collect()
 }
 
+/// [`observations_from_tracks`] with the timestamp of every row (s, as in the files),
+/// for [`build_map_set`](crate::map::build_map_set).
+pub fn timed_observations_from_tracks(tracks: &[Track]) -> (Vec<Observation>, Vec<f64>) {
+    let times = tracks
+        .iter()
+        .flat_map(|t| t.rows.iter())
+        .map(|r| r.t)
+        .collect();
+    (observations_from_tracks(tracks), times)
+}
+
 /// How one node's mixture is fitted.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct FitParams {
