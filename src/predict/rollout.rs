@@ -51,7 +51,7 @@ pub enum Tables {
 ///     .map(|i| State { position: DVec2::new(-10.0, 0.5 * i as f64), speed: 1.2, heading: 0.0, time: 0.0 })
 ///     .collect();
 /// let params = Params { k: 5, horizon: 4.0, seed: 7, ..Params::default() };
-/// let options = Options { speed_beta: 1.0, coast: 2.0, scores: true };
+/// let options = Options { speed_beta: 1.0, coast: 2.0, scores: true, follow: 2.0, candidates: 3, ..Options::default() };
 /// let mut whole = TrajectoryBatch::new();
 /// predict_with(&map, &agents, &params, &options, &mut whole).unwrap();
 ///
