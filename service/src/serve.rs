@@ -669,8 +669,9 @@ fn decode(
     rows: &[Observation],
     scratch: &mut protocol::DecodeScratch,
 ) -> Result<(usize, Params), Rejection> {
-    // the version is checked before anything else is read
-    if h.version != PROTOCOL_VERSION {
+    // the version and the kind are checked before anything else is read (a reload
+    // request, which names no map, that reaches this point over zenoh is `unknown-kind`)
+    if h.version != PROTOCOL_VERSION || h.kind != protocol::KIND_PREDICT {
         return protocol::decode_request(h, rows, limits, scratch).map(|p| (0, p));
     }
     let Some(map) = registry.find(&h.map) else {
