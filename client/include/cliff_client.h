@@ -46,15 +46,40 @@
 // Wait mode: sleep on the daemon's event.
 #define CLIFF_WAIT_BLOCK 2
 
+// Method: CLiFF-LHMP, the paper's method.
+#define CLIFF_METHOD_CLIFF 0
+
+// Method: constant velocity.
+#define CLIFF_METHOD_CVM 1
+
+// Method: the improved method (a preset of the options beyond the paper).
+#define CLIFF_METHOD_IMPROVED 2
+
+// `CliffParams.flags` bit: the response carries a score per sample
+// (`CliffPrediction.scores`).
+#define CLIFF_FLAG_SCORES 1
+
+// `CliffParams.time_mode`: the map for the daemon's wall clock when the request
+// arrives (the default).
+#define CLIFF_TIME_NOW 0
+
+// `CliffParams.time_mode`: the map for `CliffParams.time` (s on the map's clock: unix
+// time, as the tracks had it).
+#define CLIFF_TIME_AT 1
+
+// `CliffParams.time_mode`: the all-day map.
+#define CLIFF_TIME_ALL_DAY 2
+
 // Opaque client handle.
 typedef struct CliffClient CliffClient;
 
 // Opaque request handle.
 typedef struct CliffRequest CliffRequest;
 
-// Prediction parameters (see `cliff::predict::Params`).
+// Prediction parameters (see `cliff::predict::Params` and `cliff::predict::Options`).
+// Codes are sent as they are: an unknown one is refused by the daemon with its status.
 typedef struct CliffParams {
-  // 0: CLiFF-LHMP, 1: constant velocity, 2: the `improved` preset of CLiFF-LHMP.
+  // `CLIFF_METHOD_CLIFF` (0), `CLIFF_METHOD_CVM` (1) or `CLIFF_METHOD_IMPROVED` (2).
   uint32_t method;
   // 0: circular mean (reference), 1: the paper's rule.
   uint32_t heading_rule;
@@ -70,6 +95,17 @@ typedef struct CliffParams {
   double radius;
   // Seed.
   uint64_t seed;
+  // Speed kernel parameter; 0 keeps the observed speed (the paper).
+  double speed_beta;
+  // Seconds a sample goes on at constant velocity where the map has no data (at most
+  // the horizon); 0 stops it there (the paper).
+  double coast;
+  // Bits: `CLIFF_FLAG_SCORES`.
+  uint32_t flags;
+  // `CLIFF_TIME_NOW` (0), `CLIFF_TIME_AT` (1) or `CLIFF_TIME_ALL_DAY` (2).
+  uint32_t time_mode;
+  // For `CLIFF_TIME_AT`: the time (s); must be finite in every mode.
+  double time;
 } CliffParams;
 
 // A prediction, read in place; valid until the next call on the client.
@@ -89,6 +125,10 @@ typedef struct CliffPrediction {
   const float *positions;
   // Valid length of each of the `agents * k` samples (NaN past it).
   const uint32_t *lens;
+  // The score of each of the `agents * k` samples when the request set
+  // `CLIFF_FLAG_SCORES`, else NULL (higher: more likely under the map; compare the
+  // samples of one prediction).
+  const float *scores;
 } CliffPrediction;
 
 #ifdef __cplusplus
@@ -103,7 +143,8 @@ const char *cliff_last_error(void);
 const char *cliff_status_name(uint32_t status);
 
 // Fill `out` with the default parameters (k 20, dt 0.4 s, horizon 12 s, beta 1,
-// radius 0.7071 m, seed 0, CLiFF-LHMP).
+// radius 0.7071 m, seed 0, CLiFF-LHMP, no options, no scores, the map for the daemon's
+// clock).
 //
 // # Safety
 // `out` is null or points to writable memory for a `CliffParams`.
@@ -202,6 +243,15 @@ int32_t cliff_request_add_agent(struct CliffRequest *request,
 int32_t cliff_predict(struct CliffClient *client,
                       const struct CliffRequest *request,
                       struct CliffPrediction *out);
+
+// The sample of `agent` with the highest score (the first of equals) in `prediction`,
+// or -1 when it carries no scores (`CLIFF_FLAG_SCORES` not set), `agent` is out of
+// range or `prediction` is NULL.
+//
+// # Safety
+// `prediction` is null or was filled by `cliff_predict` and its data is still valid
+// (no later call on its client).
+int64_t cliff_prediction_best_sample(const struct CliffPrediction *prediction, uint32_t agent);
 
 // Give the last prediction's shared memory back to the daemon before the next call.
 //

@@ -17,15 +17,19 @@
 //! CliffPrediction out;
 //! if (cliff_predict(c, r, &out) == CLIFF_OK) { /* out.positions[2 * i], out.lens[s] */ }
 //! ```
+//!
+//! The options beyond the paper, scores and the map of the time of day are fields of
+//! [`CliffParams`] (`speed_beta`, `coast`, `flags` with [`CLIFF_FLAG_SCORES`],
+//! `time_mode` and `time`); the scores come back in [`CliffPrediction::scores`].
 
 use std::cell::RefCell;
 use std::ffi::{CStr, CString, c_char};
 use std::ptr;
 use std::time::Duration;
 
-use cliff::predict::{HeadingRule, Method, Params};
+use cliff::predict::Params;
 
-use crate::protocol::{HEADING_PAPER, METHOD_CVM, METHOD_IMPROVED, Observation, Status};
+use crate::protocol::{self, Observation, Status};
 use crate::{Answer, Client, ClientOptions, Error, RawResponse, Request, WaitMode, split_payload};
 
 /// Success.
@@ -54,11 +58,35 @@ pub const CLIFF_WAIT_HYBRID: u32 = 1;
 /// Wait mode: sleep on the daemon's event.
 pub const CLIFF_WAIT_BLOCK: u32 = 2;
 
-/// Prediction parameters (see `cliff::predict::Params`).
+// (literal values: cbindgen writes constants it can evaluate; a test checks that they
+// are the protocol's)
+
+/// Method: CLiFF-LHMP, the paper's method.
+pub const CLIFF_METHOD_CLIFF: u32 = 0;
+/// Method: constant velocity.
+pub const CLIFF_METHOD_CVM: u32 = 1;
+/// Method: the improved method (a preset of the options beyond the paper).
+pub const CLIFF_METHOD_IMPROVED: u32 = 2;
+
+/// `CliffParams.flags` bit: the response carries a score per sample
+/// (`CliffPrediction.scores`).
+pub const CLIFF_FLAG_SCORES: u32 = 1;
+
+/// `CliffParams.time_mode`: the map for the daemon's wall clock when the request
+/// arrives (the default).
+pub const CLIFF_TIME_NOW: u32 = 0;
+/// `CliffParams.time_mode`: the map for `CliffParams.time` (s on the map's clock: unix
+/// time, as the tracks had it).
+pub const CLIFF_TIME_AT: u32 = 1;
+/// `CliffParams.time_mode`: the all-day map.
+pub const CLIFF_TIME_ALL_DAY: u32 = 2;
+
+/// Prediction parameters (see `cliff::predict::Params` and `cliff::predict::Options`).
+/// Codes are sent as they are: an unknown one is refused by the daemon with its status.
 #[repr(C)]
 #[derive(Debug, Clone, Copy)]
 pub struct CliffParams {
-    /// 0: CLiFF-LHMP, 1: constant velocity, 2: the `improved` preset of CLiFF-LHMP.
+    /// `CLIFF_METHOD_CLIFF` (0), `CLIFF_METHOD_CVM` (1) or `CLIFF_METHOD_IMPROVED` (2).
     pub method: u32,
     /// 0: circular mean (reference), 1: the paper's rule.
     pub heading_rule: u32,
@@ -74,6 +102,17 @@ pub struct CliffParams {
     pub radius: f64,
     /// Seed.
     pub seed: u64,
+    /// Speed kernel parameter; 0 keeps the observed speed (the paper).
+    pub speed_beta: f64,
+    /// Seconds a sample goes on at constant velocity where the map has no data (at most
+    /// the horizon); 0 stops it there (the paper).
+    pub coast: f64,
+    /// Bits: `CLIFF_FLAG_SCORES`.
+    pub flags: u32,
+    /// `CLIFF_TIME_NOW` (0), `CLIFF_TIME_AT` (1) or `CLIFF_TIME_ALL_DAY` (2).
+    pub time_mode: u32,
+    /// For `CLIFF_TIME_AT`: the time (s); must be finite in every mode.
+    pub time: f64,
 }
 
 /// A prediction, read in place; valid until the next call on the client.
@@ -95,6 +134,10 @@ pub struct CliffPrediction {
     pub positions: *const f32,
     /// Valid length of each of the `agents * k` samples (NaN past it).
     pub lens: *const u32,
+    /// The score of each of the `agents * k` samples when the request set
+    /// `CLIFF_FLAG_SCORES`, else NULL (higher: more likely under the map; compare the
+    /// samples of one prediction).
+    pub scores: *const f32,
 }
 
 /// Opaque client handle.
@@ -152,25 +195,32 @@ unsafe fn str_arg<'a>(p: *const c_char, what: &str) -> Result<&'a str, i32> {
         .map_err(|_| invalid(&format!("{what} is not UTF-8")))
 }
 
-fn params_from(p: &CliffParams) -> Params {
-    Params {
-        method: match p.method {
-            METHOD_CVM => Method::Cvm,
-            METHOD_IMPROVED => Method::Improved,
-            _ => Method::Cliff,
-        },
-        heading: if p.heading_rule == HEADING_PAPER {
-            HeadingRule::Paper
-        } else {
-            HeadingRule::CircularMean
-        },
+/// A request against `map` with the parameters of `p`, every code and option written
+/// to the header as given (the daemon validates them).
+fn request_from(map: &str, p: &CliffParams) -> Result<Request, Error> {
+    let params = Params {
         k: p.k as usize,
         dt: p.dt,
         horizon: p.horizon,
         beta: p.beta,
         radius: p.radius,
         seed: p.seed,
-    }
+        ..Params::default()
+    };
+    let mut request = Request::new(map, &params)?;
+    write_codes(&mut request, p);
+    Ok(request)
+}
+
+fn write_codes(request: &mut Request, p: &CliffParams) {
+    let h = request.header_mut();
+    h.method = p.method;
+    h.heading_rule = p.heading_rule;
+    h.speed_beta = p.speed_beta;
+    h.coast = p.coast;
+    h.flags = p.flags;
+    h.time_mode = p.time_mode;
+    h.time = p.time;
 }
 
 /// The message of the last failed call on this thread (empty when none). Valid until
@@ -209,7 +259,8 @@ pub extern "C" fn cliff_status_name(status: u32) -> *const c_char {
 }
 
 /// Fill `out` with the default parameters (k 20, dt 0.4 s, horizon 12 s, beta 1,
-/// radius 0.7071 m, seed 0, CLiFF-LHMP).
+/// radius 0.7071 m, seed 0, CLiFF-LHMP, no options, no scores, the map for the daemon's
+/// clock).
 ///
 /// # Safety
 /// `out` is null or points to writable memory for a `CliffParams`.
@@ -228,6 +279,11 @@ pub unsafe extern "C" fn cliff_params_default(out: *mut CliffParams) {
         beta: p.beta,
         radius: p.radius,
         seed: p.seed,
+        speed_beta: 0.0,
+        coast: 0.0,
+        flags: 0,
+        time_mode: protocol::TIME_NOW,
+        time: 0.0,
     };
     // SAFETY: checked non-null; the caller guarantees it is writable
     unsafe { out.write(v) };
@@ -397,10 +453,11 @@ pub unsafe extern "C" fn cliff_request_new(
         return ptr::null_mut();
     };
     // SAFETY: null or valid by contract
-    let params = unsafe { params.as_ref() }
-        .map(params_from)
-        .unwrap_or_default();
-    match Request::new(map, &params) {
+    let made = match unsafe { params.as_ref() } {
+        Some(p) => request_from(map, p),
+        None => Request::new(map, &Params::default()),
+    };
+    match made {
         Ok(request) => Box::into_raw(Box::new(CliffRequest { request })),
         Err(e) => {
             fail(&e);
@@ -434,7 +491,16 @@ pub unsafe extern "C" fn cliff_request_set_params(
     let (Some(r), Some(p)) = (unsafe { request.as_mut() }, unsafe { params.as_ref() }) else {
         return invalid("request or params is NULL");
     };
-    r.request.set_params(&params_from(p));
+    r.request.set_params(&Params {
+        k: p.k as usize,
+        dt: p.dt,
+        horizon: p.horizon,
+        beta: p.beta,
+        radius: p.radius,
+        seed: p.seed,
+        ..Params::default()
+    });
+    write_codes(&mut r.request, p);
     CLIFF_OK
 }
 
@@ -532,6 +598,7 @@ pub unsafe extern "C" fn cliff_predict(
         steps: 0,
         positions: ptr::null(),
         lens: ptr::null(),
+        scores: ptr::null(),
     };
     let deadline = c.client.options().deadline;
     let result = c
@@ -544,15 +611,20 @@ pub unsafe extern "C" fn cliff_predict(
                 // the payload stays in the client's buffer until the next call
                 Answer::Buffered(h) => (*h, c.client.buffered_payload()),
             };
-            let (pos, lens) = split_payload(&h, payload);
+            let parts = split_payload(&h, payload);
             pred = CliffPrediction {
                 request_id: h.request_id,
                 status: h.status,
                 agents: h.agents,
                 k: h.k,
                 steps: h.steps,
-                positions: pos.as_ptr().cast(),
-                lens: lens.as_ptr(),
+                positions: parts.positions.as_ptr().cast(),
+                lens: parts.lens.as_ptr(),
+                scores: if h.has_scores() {
+                    parts.scores.as_ptr()
+                } else {
+                    ptr::null()
+                },
             };
             if let Answer::Shm(resp) = answer {
                 c.held = Some(resp);
@@ -569,6 +641,31 @@ pub unsafe extern "C" fn cliff_predict(
     // SAFETY: checked non-null
     unsafe { out.write(pred) };
     code
+}
+
+/// The sample of `agent` with the highest score (the first of equals) in `prediction`,
+/// or -1 when it carries no scores (`CLIFF_FLAG_SCORES` not set), `agent` is out of
+/// range or `prediction` is NULL.
+///
+/// # Safety
+/// `prediction` is null or was filled by `cliff_predict` and its data is still valid
+/// (no later call on its client).
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn cliff_prediction_best_sample(
+    prediction: *const CliffPrediction,
+    agent: u32,
+) -> i64 {
+    // SAFETY: null or valid by contract
+    let Some(p) = (unsafe { prediction.as_ref() }) else {
+        return -1;
+    };
+    if p.scores.is_null() || agent >= p.agents || p.k == 0 {
+        return -1;
+    }
+    let k = p.k as usize;
+    // SAFETY: scores holds agents * k floats while the prediction is valid
+    let scores = unsafe { std::slice::from_raw_parts(p.scores.add(agent as usize * k), k) };
+    crate::best_of(scores).map_or(-1, |s| s as i64)
 }
 
 /// Give the last prediction's shared memory back to the daemon before the next call.
@@ -601,5 +698,45 @@ pub unsafe extern "C" fn cliff_client_reload_maps(client: *mut CliffClient) -> i
     match c.client.reload_maps(deadline) {
         Ok(()) => CLIFF_OK,
         Err(e) => fail(&e),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_c_constants_are_the_protocols() {
+        assert_eq!(CLIFF_METHOD_CLIFF, protocol::METHOD_CLIFF);
+        assert_eq!(CLIFF_METHOD_CVM, protocol::METHOD_CVM);
+        assert_eq!(CLIFF_METHOD_IMPROVED, protocol::METHOD_IMPROVED);
+        assert_eq!(CLIFF_FLAG_SCORES, protocol::FLAG_SCORES);
+        assert_eq!(CLIFF_TIME_NOW, protocol::TIME_NOW);
+        assert_eq!(CLIFF_TIME_AT, protocol::TIME_AT);
+        assert_eq!(CLIFF_TIME_ALL_DAY, protocol::TIME_ALL_DAY);
+    }
+
+    #[test]
+    fn best_sample_reads_the_scores_of_one_agent() {
+        let scores = [-3.0f32, -1.0, -2.0, -5.0, -4.0, -4.0];
+        let mut p = CliffPrediction {
+            request_id: 0,
+            status: 0,
+            agents: 2,
+            k: 3,
+            steps: 1,
+            positions: ptr::null(),
+            lens: ptr::null(),
+            scores: scores.as_ptr(),
+        };
+        // SAFETY: scores holds agents * k floats
+        unsafe {
+            assert_eq!(cliff_prediction_best_sample(&p, 0), 1);
+            assert_eq!(cliff_prediction_best_sample(&p, 1), 1); // the first of equals
+            assert_eq!(cliff_prediction_best_sample(&p, 2), -1);
+            assert_eq!(cliff_prediction_best_sample(ptr::null(), 0), -1);
+            p.scores = ptr::null();
+            assert_eq!(cliff_prediction_best_sample(&p, 0), -1);
+        }
     }
 }

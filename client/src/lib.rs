@@ -1,7 +1,9 @@
 //! # cliff-client: talk to the `cliffd` prediction daemon over iceoryx2 shared memory
 //!
 //! * [`protocol`]: the wire types (`#[repr(C)]`, versioned) and the request validation
-//!   shared with the daemon, plus the in-process reference [`LocalPredictor`].
+//!   shared with the daemon, plus the in-process reference [`LocalPredictor`];
+//!   [`legacy`]: version 1's types, with which a daemon answers old clients
+//!   `bad-version`.
 //! * [`Client`]: connect to a daemon, send a [`Request`], get a [`Prediction`] that
 //!   borrows the response in shared memory (no copy).
 //! * [`ffi`]: the C ABI (header `client/include/cliff_client.h`).
@@ -46,6 +48,7 @@
 #![warn(missing_docs)]
 
 pub mod ffi;
+pub mod legacy;
 pub mod protocol;
 pub mod wire;
 #[cfg(feature = "zenoh")]
@@ -55,7 +58,7 @@ use std::fmt;
 use std::marker::PhantomData;
 use std::time::{Duration, Instant};
 
-use cliff::predict::Params;
+use cliff::predict::{Method, Options, Params};
 use iceoryx2::port::client::Client as IoxClient;
 use iceoryx2::port::listener::{Listener, ListenerWaitError};
 use iceoryx2::port::notifier::Notifier;
@@ -63,7 +66,7 @@ use iceoryx2::prelude::*;
 use iceoryx2::response::Response;
 
 pub use protocol::{
-    Field, KIND_RELOAD, Limits, LocalPredictor, Observation, PROTOCOL_VERSION, Rejection,
+    Field, KIND_RELOAD, Limits, LocalPredictor, MapTime, Observation, PROTOCOL_VERSION, Rejection,
     RequestHeader, ResponseHeader, Status,
 };
 
@@ -215,8 +218,10 @@ pub enum Error {
     /// The request cannot be sent as it is (caught before sending).
     #[error("invalid request: {0}")]
     InvalidRequest(String),
-    /// The response breaks the protocol (a daemon of another version, or a bug).
-    #[error("malformed response: {0}")]
+    /// The response breaks the protocol, or the daemon speaks another protocol version
+    /// (a daemon of version 1 found at connect time; a daemon of a later version
+    /// answers `bad-version`, which is reported as this).
+    #[error("protocol: {0}")]
     Protocol(String),
     /// iceoryx2 failed (shared memory, permissions, limits).
     #[error("iceoryx2: {0}")]
@@ -236,12 +241,37 @@ impl Error {
     }
 }
 
+/// The error for a daemon that speaks another protocol version.
+pub(crate) fn version_mismatch(daemon: u32) -> Error {
+    Error::Protocol(format!(
+        "the daemon speaks protocol version {daemon}, this client {PROTOCOL_VERSION}"
+    ))
+}
+
 fn ipc_err(what: &str, e: impl fmt::Debug) -> Error {
     Error::Ipc(format!("{what}: {e:?}"))
 }
 
 /// A prediction request: map, parameters and the agents' observed histories. Reuse it
 /// between calls ([`clear_agents`](Self::clear_agents) keeps the allocation).
+///
+/// Beyond [`Params`], a request may ask for another method, the options beyond the
+/// paper, a score per sample and a map of the time of day:
+///
+/// ```
+/// use cliff::predict::Params;
+/// use cliff_client::{MapTime, Request};
+///
+/// let r = Request::new("atc", &Params::default())?
+///     .speed_beta(2.0) // the speed follows the map's
+///     .coast(6.0) // 6 s at constant velocity where the map has no data
+///     .scores(true) // a score per sample: Prediction::scores, best_sample
+///     .time(1_351_700_000.0); // the map of that time of day (default: the daemon's clock)
+/// let o = r.options();
+/// assert_eq!((o.speed_beta, o.coast, o.scores), (2.0, 6.0, true));
+/// assert_eq!(r.map_time(), MapTime::At(1_351_700_000.0));
+/// # Ok::<(), cliff_client::Error>(())
+/// ```
 #[derive(Debug, Clone, PartialEq)]
 pub struct Request {
     header: RequestHeader,
@@ -259,14 +289,92 @@ impl Request {
         })
     }
 
-    /// Replace the parameters (keeps map and agents).
+    /// Replace the parameters (keeps map, agents, options and map time).
     pub fn set_params(&mut self, params: &Params) {
         let keep = self.header;
         self.header = RequestHeader {
             map: keep.map,
             agents: keep.agents,
+            speed_beta: keep.speed_beta,
+            coast: keep.coast,
+            flags: keep.flags,
+            time_mode: keep.time_mode,
+            time: keep.time,
             ..RequestHeader::from_params(params)
         };
+    }
+
+    /// With the method `method` (the parameters' method otherwise).
+    pub fn method(mut self, method: Method) -> Self {
+        self.header.method = protocol::method_code(method);
+        self
+    }
+
+    /// With the speed kernel parameter ([`Options::speed_beta`]; 0, the default, keeps
+    /// the observed speed).
+    pub fn speed_beta(mut self, speed_beta: f64) -> Self {
+        self.header.speed_beta = speed_beta;
+        self
+    }
+
+    /// With `seconds` of coasting where the map has no data ([`Options::coast`], at most
+    /// the horizon; 0, the default, stops a sample there).
+    pub fn coast(mut self, seconds: f64) -> Self {
+        self.header.coast = seconds;
+        self
+    }
+
+    /// With (or without, the default) a score per sample in the response
+    /// ([`Prediction::scores`], [`Prediction::best_sample`]). The improved method
+    /// scores its samples either way.
+    pub fn scores(mut self, on: bool) -> Self {
+        let mut o = self.options();
+        o.scores = on;
+        self.header.set_options(&o);
+        self
+    }
+
+    /// With the map of the time of day for `time` (s on the map's clock: unix time, as
+    /// the tracks had it) instead of the daemon's wall clock.
+    pub fn time(mut self, time: f64) -> Self {
+        self.header.set_map_time(MapTime::At(time));
+        self
+    }
+
+    /// With the all-day map, whatever the time.
+    pub fn all_day(mut self) -> Self {
+        self.header.set_map_time(MapTime::AllDay);
+        self
+    }
+
+    /// Set the method.
+    pub fn set_method(&mut self, method: Method) {
+        self.header.method = protocol::method_code(method);
+    }
+
+    /// Set the options beyond the paper (speed kernel, coasting, scores).
+    pub fn set_options(&mut self, options: &Options) {
+        self.header.set_options(options);
+    }
+
+    /// The options beyond the paper, as they will be sent.
+    pub fn options(&self) -> Options {
+        self.header.options()
+    }
+
+    /// Set which map of the time of day to use ([`MapTime::Now`], the default: the
+    /// daemon's wall clock when the request arrives).
+    pub fn set_map_time(&mut self, when: MapTime) {
+        self.header.set_map_time(when);
+    }
+
+    /// Which map of the time of day the request asks for.
+    pub fn map_time(&self) -> MapTime {
+        match self.header.time_mode {
+            protocol::TIME_AT => MapTime::At(self.header.time),
+            protocol::TIME_ALL_DAY => MapTime::AllDay,
+            _ => MapTime::Now,
+        }
     }
 
     /// Set the seed of the request's random generator.
@@ -305,6 +413,11 @@ impl Request {
     /// The wire header (request id and listener are filled in when sent).
     pub fn header(&self) -> &RequestHeader {
         &self.header
+    }
+
+    /// The wire header, for the C ABI (which passes codes through as given).
+    pub(crate) fn header_mut(&mut self) -> &mut RequestHeader {
+        &mut self.header
     }
 
     /// The wire rows.
@@ -394,16 +507,32 @@ impl Client {
             service: service.to_string(),
         };
         use iceoryx2::service::builder::request_response::RequestResponseOpenError as E;
-        let svc = node
-            .service_builder(&name(service)?)
+        let svc = match node
+            .service_builder(&name(&protocol::ipc_service_name(service))?)
             .request_response::<[Observation], [u32]>()
             .request_user_header::<RequestHeader>()
             .response_user_header::<ResponseHeader>()
             .open()
-            .map_err(|e| match e {
-                E::DoesNotExist => no_daemon(),
-                e => ipc_err("cannot open the service", e),
-            })?;
+        {
+            Ok(svc) => svc,
+            Err(E::DoesNotExist) => {
+                // a daemon of version 1 serves the bare name with version 1's types (a
+                // daemon of this version serves both)
+                let old = node
+                    .service_builder(&name(&legacy::ipc_service_name(service))?)
+                    .request_response::<[legacy::Observation], [u32]>()
+                    .request_user_header::<legacy::RequestHeader>()
+                    .response_user_header::<legacy::ResponseHeader>()
+                    .open();
+                return Err(match old {
+                    Ok(old) if old.dynamic_config().number_of_servers() > 0 => {
+                        version_mismatch(legacy::VERSION)
+                    }
+                    _ => no_daemon(),
+                });
+            }
+            Err(e) => return Err(ipc_err("cannot open the service", e)),
+        };
         if svc.dynamic_config().number_of_servers() == 0 {
             return Err(no_daemon());
         }
@@ -770,10 +899,7 @@ fn check_header(h: &ResponseHeader, payload: &[u32], id: u64) -> Result<(), Erro
         )));
     }
     if h.version != PROTOCOL_VERSION {
-        return Err(Error::Protocol(format!(
-            "daemon speaks protocol {}, this client {PROTOCOL_VERSION}",
-            h.version
-        )));
+        return Err(version_mismatch(h.version));
     }
     if let Some(rej) = Rejection::from_header(h) {
         return Err(Error::Rejected(rej));
@@ -781,15 +907,19 @@ fn check_header(h: &ResponseHeader, payload: &[u32], id: u64) -> Result<(), Erro
     let words = payload.len();
     if words != h.payload_words() {
         return Err(Error::Protocol(format!(
-            "payload holds {words} words, shape {}x{}x{} needs {}",
+            "payload holds {words} words, shape {}x{}x{}{} needs {}",
             h.agents,
             h.k,
             h.steps,
+            if h.has_scores() { " with scores" } else { "" },
             h.payload_words()
         )));
     }
-    let points = (h.agents as usize) * (h.k as usize) * (h.steps as usize);
-    if let Some(bad) = payload[points * 2..].iter().find(|&&l| l > h.steps) {
+    if let Some(bad) = split_payload(h, payload)
+        .lens
+        .iter()
+        .find(|&&l| l > h.steps)
+    {
         return Err(Error::Protocol(format!(
             "a sample length {bad} exceeds {} steps",
             h.steps
@@ -823,13 +953,37 @@ impl fmt::Debug for Prediction<'_> {
     }
 }
 
-pub(crate) fn split_payload<'a>(
-    h: &ResponseHeader,
-    payload: &'a [u32],
-) -> (&'a [[f32; 2]], &'a [u32]) {
-    let points = (h.agents as usize) * (h.k as usize) * (h.steps as usize);
-    let (pos, lens) = payload.split_at(points * 2);
-    (bytemuck::cast_slice(pos), lens)
+/// The parts of a checked response payload.
+pub(crate) struct Parts<'a> {
+    pub positions: &'a [[f32; 2]],
+    pub lens: &'a [u32],
+    /// Empty when the response carries no scores.
+    pub scores: &'a [f32],
+}
+
+/// Split a payload whose length was checked against `h` ([`check_header`]).
+pub(crate) fn split_payload<'a>(h: &ResponseHeader, payload: &'a [u32]) -> Parts<'a> {
+    let samples = (h.agents as usize) * (h.k as usize);
+    let points = samples * (h.steps as usize);
+    let (pos, rest) = payload.split_at(points * 2);
+    let (lens, scores) = rest.split_at(samples.min(rest.len()));
+    Parts {
+        positions: bytemuck::cast_slice(pos),
+        lens,
+        scores: bytemuck::cast_slice(scores),
+    }
+}
+
+/// The sample with the highest score (the first of equals), as
+/// [`TrajectoryBatch::best_sample`](cliff::predict::TrajectoryBatch::best_sample).
+fn best_of(scores: &[f32]) -> Option<usize> {
+    let mut best = None;
+    for (s, v) in scores.iter().enumerate() {
+        if best.is_none_or(|b: usize| *v > scores[b]) {
+            best = Some(s);
+        }
+    }
+    best
 }
 
 impl<'c> Prediction<'c> {
@@ -860,24 +1014,56 @@ impl<'c> Prediction<'c> {
 
     /// All positions, sample-major (NaN past each sample's valid length).
     pub fn positions(&self) -> &[[f32; 2]] {
-        split_payload(self.header(), self.payload()).0
+        split_payload(self.header(), self.payload()).positions
     }
 
     /// The valid length of every sample (`agents x k`).
     pub fn lens(&self) -> &[u32] {
-        split_payload(self.header(), self.payload()).1
+        split_payload(self.header(), self.payload()).lens
+    }
+
+    /// True when the response carries scores ([`ResponseHeader::flags`]): the request
+    /// asked for them ([`Request::scores`]) or its method scores its samples
+    /// (`Method::Improved`).
+    pub fn has_scores(&self) -> bool {
+        self.header().has_scores()
+    }
+
+    /// The score of every sample (`agents x k`, sample `a * k + s`), when the response
+    /// carries scores ([`has_scores`](Self::has_scores)); empty otherwise. A score is the
+    /// log-likelihood of the sample under the map ([`cliff::predict::Options::scores`]):
+    /// compare the samples of one response.
+    pub fn scores(&self) -> &[f32] {
+        split_payload(self.header(), self.payload()).scores
+    }
+
+    /// The score of sample `s` of agent `a`, when the response carries scores.
+    pub fn score(&self, a: usize, s: usize) -> Option<f32> {
+        let k = self.shape().1;
+        if s >= k {
+            return None;
+        }
+        self.scores().get(a * k + s).copied()
+    }
+
+    /// The sample of agent `a` with the highest score (the first of equals), when the
+    /// response carries scores and `a` is in range.
+    pub fn best_sample(&self, a: usize) -> Option<usize> {
+        let k = self.shape().1;
+        best_of(self.scores().get(a * k..(a + 1) * k)?)
     }
 
     /// The predictions for agent `a` (panics when `a` is out of range).
     pub fn agent(&self, a: usize) -> AgentPrediction<'_> {
         let (agents, k, steps) = self.shape();
         assert!(a < agents, "agent {a} of {agents}");
-        let (pos, lens) = split_payload(self.header(), self.payload());
+        let parts = split_payload(self.header(), self.payload());
         AgentPrediction {
             index: a,
             steps,
-            positions: &pos[a * k * steps..(a + 1) * k * steps],
-            lens: &lens[a * k..(a + 1) * k],
+            positions: &parts.positions[a * k * steps..(a + 1) * k * steps],
+            lens: &parts.lens[a * k..(a + 1) * k],
+            scores: parts.scores.get(a * k..(a + 1) * k).unwrap_or(&[]),
         }
     }
 
@@ -887,13 +1073,17 @@ impl<'c> Prediction<'c> {
     }
 
     /// Copy into a [`TrajectoryBatch`](cliff::predict::TrajectoryBatch) (for keeping the
-    /// result beyond the next call).
+    /// result beyond the next call), with the scores when the response carries them.
     pub fn to_batch(&self, out: &mut cliff::predict::TrajectoryBatch) {
         let (a, k, s) = self.shape();
         out.reshape(a, k, s);
         let m = out.as_mut();
         m.positions.copy_from_slice(self.positions());
         m.lens.copy_from_slice(self.lens());
+        let scores = self.has_scores().then(|| self.scores());
+        // a checked response holds one score per sample of its shape
+        out.set_scores(scores)
+            .expect("a checked response has a score per sample");
     }
 }
 
@@ -904,6 +1094,7 @@ pub struct AgentPrediction<'p> {
     steps: usize,
     positions: &'p [[f32; 2]],
     lens: &'p [u32],
+    scores: &'p [f32],
 }
 
 impl<'p> AgentPrediction<'p> {
@@ -932,5 +1123,16 @@ impl<'p> AgentPrediction<'p> {
     pub fn samples(&self) -> impl ExactSizeIterator<Item = &'p [[f32; 2]]> + use<'p> {
         let this = *self;
         (0..self.lens.len()).map(move |s| this.sample(s))
+    }
+
+    /// The samples' scores (empty when the response carries none).
+    pub fn scores(&self) -> &'p [f32] {
+        self.scores
+    }
+
+    /// The sample with the highest score (the first of equals), when the response
+    /// carries scores.
+    pub fn best_sample(&self) -> Option<usize> {
+        best_of(self.scores)
     }
 }

@@ -7,11 +7,21 @@
 //! * response: a [`ResponseHeader`] (status, request id echo, shape) and a slice of
 //!   `u32` words: first `agents x k x steps` points as `[f32; 2]` bit patterns
 //!   (sample-major, exactly as [`cliff::predict::predict_into`] writes them), then the
-//!   `agents x k` valid lengths. A rejected request gets an empty slice.
+//!   `agents x k` valid lengths, then (when the request set [`FLAG_SCORES`]) the
+//!   `agents x k` scores as `f32` bit patterns. A rejected request gets an empty slice.
 //!
 //! All types are `#[repr(C)]`, hold no pointers, and carry a stable iceoryx2 type name
-//! that includes [`PROTOCOL_VERSION`], so processes built from different protocol
-//! versions refuse to connect instead of misreading each other.
+//! that includes [`PROTOCOL_VERSION`]. The iceoryx2 service of version 2 is named after
+//! the daemon's service with the version appended ([`ipc_service_name`]); a daemon
+//! also serves version 1's name with version 1's types ([`crate::legacy`]) only to
+//! answer every request there with [`Status::BadVersion`], so an old client learns why
+//! instead of finding no daemon.
+//!
+//! Version 2 added, over version 1: the method [`METHOD_IMPROVED`]; the options beyond
+//! the paper ([`RequestHeader::speed_beta`], [`RequestHeader::coast`], scores through
+//! [`FLAG_SCORES`], see [`cliff::predict::Options`]); the time that picks a map of the
+//! time of day ([`RequestHeader::time_mode`], [`RequestHeader::time`]); and
+//! [`ResponseHeader::flags`] with the scores in the payload.
 //!
 //! [`decode_request`] is the one place that validates a request and turns it into
 //! prediction parameters and agent states: the daemon calls it, and so does the
@@ -22,12 +32,25 @@ use std::fmt;
 use cliff::glam::DVec2;
 use cliff::map::CliffMap;
 use cliff::motion::{DEFAULT_SIGMA, State, velocity_from_positions, velocity_from_speed_angle};
-use cliff::predict::{HeadingRule, Method, Params, TrajectoryBatch, predict_into};
+use cliff::predict::preset::cost_factor;
+use cliff::predict::{HeadingRule, Method, Options, Params, TrajectoryBatch, predict_with};
 use iceoryx2::prelude::ZeroCopySend;
 
 /// Version of the wire protocol; a request with another version is answered with
-/// [`Status::BadVersion`].
-pub const PROTOCOL_VERSION: u32 = 1;
+/// [`Status::BadVersion`] (its `limit` holds this version).
+pub const PROTOCOL_VERSION: u32 = 2;
+
+/// The iceoryx2 service name of this protocol version for the daemon's service name
+/// `service` (`cliff/predict` is served as `cliff/predict/v2`). Version 1 used the bare
+/// name ([`crate::legacy`]); the event services (`{service}/requests`,
+/// `{service}/responses`) carry no types and are shared by all versions.
+///
+/// ```
+/// assert_eq!(cliff_client::protocol::ipc_service_name("cliff/predict"), "cliff/predict/v2");
+/// ```
+pub fn ipc_service_name(service: &str) -> String {
+    format!("{service}/v{PROTOCOL_VERSION}")
+}
 
 /// Bytes reserved for a map name in a request (names are at most one byte shorter: the
 /// rest is NUL padding).
@@ -48,9 +71,28 @@ pub const KIND_RELOAD: u32 = 1;
 pub const METHOD_CLIFF: u32 = 0;
 /// [`RequestHeader::method`] for the constant-velocity model.
 pub const METHOD_CVM: u32 = 1;
-/// [`RequestHeader::method`] for the `improved` preset of CLiFF-LHMP
-/// (`cliff::predict::Method::Improved`).
+/// [`RequestHeader::method`] for the improved method (`Method::Improved`: CLiFF-LHMP
+/// with a preset of parameters and options, resolved by the library,
+/// `cliff::predict::preset`; the preset's beta and options replace the request's).
 pub const METHOD_IMPROVED: u32 = 2;
+
+/// [`RequestHeader::flags`] and [`ResponseHeader::flags`] bit: the response carries a
+/// score per sample after the lengths ([`cliff::predict::Options::scores`]). A response
+/// to [`METHOD_IMPROVED`] always does (its preset scores the samples): read the
+/// response's flag.
+pub const FLAG_SCORES: u32 = 1;
+/// Every [`RequestHeader::flags`] bit this version knows; a request with another bit
+/// set is refused ([`Status::BadValue`], [`Field::Flags`]).
+pub const KNOWN_FLAGS: u32 = FLAG_SCORES;
+
+/// [`RequestHeader::time_mode`]: the map for the daemon's wall clock when the request
+/// arrives (the default). [`RequestHeader::time`] is not used (but must be finite).
+pub const TIME_NOW: u32 = 0;
+/// [`RequestHeader::time_mode`]: the map for [`RequestHeader::time`], seconds on the
+/// map's clock (unix time, as the tracks the map was built from had it).
+pub const TIME_AT: u32 = 1;
+/// [`RequestHeader::time_mode`]: the all-day map, whatever the time.
+pub const TIME_ALL_DAY: u32 = 2;
 
 /// [`RequestHeader::heading_rule`]: the reference implementation's circular mean.
 pub const HEADING_CIRCULAR_MEAN: u32 = 0;
@@ -64,7 +106,7 @@ pub const FLAG_VELOCITY: u32 = 1;
 
 /// Fixed part of a request (the iceoryx2 request user header).
 #[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]
-#[type_name("cliff.protocol.v1.RequestHeader")]
+#[type_name("cliff.protocol.v2.RequestHeader")]
 #[repr(C)]
 pub struct RequestHeader {
     /// Must be [`PROTOCOL_VERSION`].
@@ -96,6 +138,17 @@ pub struct RequestHeader {
     pub radius: f64,
     /// Seed of the request's random generator.
     pub seed: u64,
+    /// Speed kernel parameter ([`Options::speed_beta`]); 0 keeps the observed speed.
+    pub speed_beta: f64,
+    /// Seconds a sample coasts where the map has no data ([`Options::coast`], at most
+    /// the horizon); 0 stops it there.
+    pub coast: f64,
+    /// Bits: [`FLAG_SCORES`].
+    pub flags: u32,
+    /// Which map of the time of day: [`TIME_NOW`], [`TIME_AT`] or [`TIME_ALL_DAY`].
+    pub time_mode: u32,
+    /// For [`TIME_AT`]: the time (s on the map's clock); must be finite in every mode.
+    pub time: f64,
 }
 
 impl Default for RequestHeader {
@@ -113,11 +166,7 @@ impl RequestHeader {
             request_id: 0,
             listener_id: [0, 0],
             map: [0; MAP_NAME_BYTES],
-            method: match params.method {
-                Method::Cliff => METHOD_CLIFF,
-                Method::Cvm => METHOD_CVM,
-                Method::Improved => METHOD_IMPROVED,
-            },
+            method: method_code(params.method),
             heading_rule: match params.heading {
                 HeadingRule::CircularMean => HEADING_CIRCULAR_MEAN,
                 HeadingRule::Paper => HEADING_PAPER,
@@ -129,7 +178,39 @@ impl RequestHeader {
             beta: params.beta,
             radius: params.radius,
             seed: params.seed,
+            speed_beta: 0.0,
+            coast: 0.0,
+            flags: 0,
+            time_mode: TIME_NOW,
+            time: 0.0,
         }
+    }
+
+    /// Set the options beyond the paper (speed kernel, coasting, scores).
+    pub fn set_options(&mut self, options: &Options) {
+        self.speed_beta = options.speed_beta;
+        self.coast = options.coast;
+        self.flags = if options.scores {
+            self.flags | FLAG_SCORES
+        } else {
+            self.flags & !FLAG_SCORES
+        };
+    }
+
+    /// The options as sent (not validated).
+    pub fn options(&self) -> Options {
+        Options {
+            speed_beta: self.speed_beta,
+            coast: self.coast,
+            scores: self.flags & FLAG_SCORES != 0,
+            // not on the wire: only through a preset method (improved)
+            ..Options::default()
+        }
+    }
+
+    /// Set which map of the time of day the request asks for.
+    pub fn set_map_time(&mut self, when: MapTime) {
+        (self.time_mode, self.time) = when.to_wire();
     }
 
     /// The map name as bytes (without the NUL padding).
@@ -146,6 +227,72 @@ impl RequestHeader {
     /// holds a NUL byte.
     pub fn set_map_name(&mut self, name: &str) -> Result<(), String> {
         encode_map_name(name).map(|m| self.map = m)
+    }
+}
+
+/// The wire code of a method ([`RequestHeader::method`]).
+pub fn method_code(method: Method) -> u32 {
+    match method {
+        Method::Cliff => METHOD_CLIFF,
+        Method::Cvm => METHOD_CVM,
+        Method::Improved => METHOD_IMPROVED,
+    }
+}
+
+/// The method of a wire code; `None` for an unknown code.
+pub fn method_from_code(code: u32) -> Option<Method> {
+    match code {
+        METHOD_CLIFF => Some(Method::Cliff),
+        METHOD_CVM => Some(Method::Cvm),
+        METHOD_IMPROVED => Some(Method::Improved),
+        _ => None,
+    }
+}
+
+/// Whether the response to a request of `params` and `options` carries scores: when
+/// the request asks for them ([`FLAG_SCORES`]) or its method's preset scores its
+/// samples (`Improved`, [`cliff::predict::preset`]).
+pub fn scores_in_response(params: &Params, options: &Options) -> bool {
+    options.scores || cliff::predict::preset::resolve(params, options).1.scores
+}
+
+/// Which map of the time of day a request asks for ([`RequestHeader::time_mode`] and
+/// [`RequestHeader::time`]). Daemons serve one map per name today; this picks among
+/// the maps of a time-of-day map set once they serve sets.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub enum MapTime {
+    /// The map for the daemon's wall clock when the request arrives.
+    #[default]
+    Now,
+    /// The map for this time (s on the map's clock: unix time, as the tracks had it).
+    At(f64),
+    /// The all-day map.
+    AllDay,
+}
+
+impl MapTime {
+    /// The wire form: `(time_mode, time)`.
+    pub fn to_wire(self) -> (u32, f64) {
+        match self {
+            MapTime::Now => (TIME_NOW, 0.0),
+            MapTime::At(t) => (TIME_AT, t),
+            MapTime::AllDay => (TIME_ALL_DAY, 0.0),
+        }
+    }
+
+    /// Read the wire form; the rejection names the field that is wrong (an unknown mode,
+    /// a time that is not finite, in any mode).
+    pub fn from_wire(mode: u32, time: f64) -> Result<MapTime, Rejection> {
+        let when = match mode {
+            TIME_NOW => MapTime::Now,
+            TIME_AT => MapTime::At(time),
+            TIME_ALL_DAY => MapTime::AllDay,
+            _ => return Err(Rejection::new(Status::BadValue, Field::TimeMode)),
+        };
+        if !time.is_finite() {
+            return Err(Rejection::new(Status::NonFinite, Field::MapTime));
+        }
+        Ok(when)
     }
 }
 
@@ -175,7 +322,7 @@ pub fn encode_map_name(name: &str) -> Result<[u8; MAP_NAME_BYTES], String> {
 
 /// One row of an agent's observed history.
 #[derive(Debug, Clone, Copy, PartialEq, Default, ZeroCopySend)]
-#[type_name("cliff.protocol.v1.Observation")]
+#[type_name("cliff.protocol.v2.Observation")]
 #[repr(C)]
 pub struct Observation {
     /// Agent index in the request (`0..agents`, rows grouped by agent).
@@ -224,7 +371,7 @@ impl Observation {
 
 /// Fixed part of a response (the iceoryx2 response user header).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, ZeroCopySend)]
-#[type_name("cliff.protocol.v1.ResponseHeader")]
+#[type_name("cliff.protocol.v2.ResponseHeader")]
 #[repr(C)]
 pub struct ResponseHeader {
     /// The daemon's [`PROTOCOL_VERSION`].
@@ -253,6 +400,10 @@ pub struct ResponseHeader {
     /// awake; a later one has to wake it, and a [`WaitMode::Hybrid`](crate::WaitMode)
     /// client then sleeps at once instead of spinning.
     pub awake_us: u32,
+    /// For a batch: [`FLAG_SCORES`] when the payload carries the scores.
+    pub flags: u32,
+    /// Zero (keeps the header free of padding).
+    pub reserved: u32,
 }
 
 impl ResponseHeader {
@@ -269,16 +420,27 @@ impl ResponseHeader {
         }
     }
 
-    /// Number of `u32` words of the payload for this header's shape.
+    /// True when the payload carries the scores ([`FLAG_SCORES`]).
+    pub fn has_scores(&self) -> bool {
+        self.flags & FLAG_SCORES != 0
+    }
+
+    /// Number of `u32` words of the payload for this header's shape (and scores).
     pub fn payload_words(&self) -> usize {
-        payload_words(self.agents as usize, self.k as usize, self.steps as usize)
+        payload_words(
+            self.agents as usize,
+            self.k as usize,
+            self.steps as usize,
+            self.has_scores(),
+        )
     }
 }
 
-/// `u32` words of a response payload: `2` per point plus one length per sample.
-pub fn payload_words(agents: usize, k: usize, steps: usize) -> usize {
+/// `u32` words of a response payload: `2` per point plus one length per sample, plus
+/// one score per sample when `scores`.
+pub fn payload_words(agents: usize, k: usize, steps: usize, scores: bool) -> usize {
     let samples = agents * k;
-    samples * steps * 2 + samples
+    samples * steps * 2 + samples + if scores { samples } else { 0 }
 }
 
 /// Outcome of a request, as sent in [`ResponseHeader::status`].
@@ -287,12 +449,13 @@ pub fn payload_words(agents: usize, k: usize, steps: usize) -> usize {
 pub enum Status {
     /// The batch is in the payload.
     Ok = 0,
-    /// The request's protocol version differs from the daemon's.
+    /// The request's protocol version differs from the daemon's (`limit`: the daemon's
+    /// version).
     BadVersion = 1,
     /// No map of that name is loaded.
     UnknownMap = 2,
-    /// The method code is not one of [`METHOD_CLIFF`], [`METHOD_CVM`], [`METHOD_IMPROVED`] (or the heading rule
-    /// code is unknown).
+    /// The method code is not one of [`METHOD_CLIFF`], [`METHOD_CVM`],
+    /// [`METHOD_IMPROVED`] (or the heading rule code is unknown).
     UnknownMethod = 3,
     /// A parameter or a history value is NaN or infinite.
     NonFinite = 4,
@@ -300,14 +463,16 @@ pub enum Status {
     BadK = 5,
     /// `floor(horizon / dt)` is zero or above the daemon's limit.
     BadSteps = 6,
-    /// No agents, or more than the daemon's limit.
+    /// No agents, or more than the daemon's limit (for a method that costs more than
+    /// CLiFF-LHMP, the limit for the request's `k` and steps).
     BadAgents = 7,
     /// An agent's history has too few rows (2 with positions only, 1 with velocity).
     HistoryTooShort = 8,
     /// An agent's timestamps do not strictly increase.
     HistoryNotIncreasing = 9,
-    /// A finite parameter or value out of its range (dt or radius not positive, beta or
-    /// horizon or a speed negative).
+    /// A finite parameter or value out of its range (dt or radius not positive, beta,
+    /// horizon, speed_beta, coast or a speed negative, coast beyond the horizon), an
+    /// unknown flag bit or time mode.
     BadValue = 10,
     /// The rows are not grouped by agent `0..agents`, or an agent mixes rows with and
     /// without velocity.
@@ -423,6 +588,16 @@ pub enum Field {
     HeadingRule = 14,
     /// The protocol version.
     Version = 15,
+    /// `speed_beta`.
+    SpeedBeta = 16,
+    /// `coast`.
+    Coast = 17,
+    /// The request flags.
+    Flags = 18,
+    /// `time_mode`.
+    TimeMode = 19,
+    /// `time` (the time that picks the map, not a row's time).
+    MapTime = 20,
 }
 
 impl Field {
@@ -445,6 +620,11 @@ impl Field {
             13 => Method,
             14 => HeadingRule,
             15 => Version,
+            16 => SpeedBeta,
+            17 => Coast,
+            18 => Flags,
+            19 => TimeMode,
+            20 => MapTime,
             _ => None,
         }
     }
@@ -469,6 +649,11 @@ impl Field {
             Method => "method",
             HeadingRule => "heading rule",
             Version => "version",
+            SpeedBeta => "speed_beta",
+            Coast => "coast",
+            Flags => "flags",
+            TimeMode => "time_mode",
+            MapTime => "map time",
         }
     }
 }
@@ -561,7 +746,9 @@ impl fmt::Display for Rejection {
                 write!(f, " row {r}")?;
             }
         }
-        if self.limit > 0 {
+        if self.status == Status::BadVersion && self.limit > 0 {
+            write!(f, ": the daemon speaks protocol version {}", self.limit)?;
+        } else if self.limit > 0 {
             write!(f, ", limit {}", self.limit)?;
             if self.status == Status::RadiusTooLarge {
                 f.write_str(" mm")?;
@@ -596,13 +783,23 @@ impl Default for Limits {
 }
 
 impl Limits {
-    /// The largest response payload (in `u32` words) these limits allow.
+    /// The largest response payload (in `u32` words) these limits allow (with scores).
     pub fn max_payload_words(&self) -> usize {
         payload_words(
             self.max_agents as usize,
             self.max_k as usize,
             self.max_steps as usize,
+            true,
         )
+    }
+
+    /// The most positions of CLiFF-LHMP's cost one request may ask for:
+    /// `max_agents x max_k x max_steps`. A request whose method costs a multiple of
+    /// CLiFF-LHMP per position ([`cliff::predict::preset::cost_factor`]: the improved
+    /// preset draws several candidates per kept sample) may hold that many positions
+    /// divided by the factor.
+    pub fn max_cost(&self) -> u64 {
+        self.max_agents as u64 * self.max_k as u64 * self.max_steps as u64
     }
 }
 
@@ -639,10 +836,38 @@ fn finite(v: f64) -> bool {
     v.is_finite()
 }
 
+/// A validated predict request: what [`decode_request`] returns (the agents' start
+/// states are in the [`DecodeScratch`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Decoded {
+    /// The prediction parameters, as asked (a preset method such as `Improved` is
+    /// resolved by the predictor).
+    pub params: Params,
+    /// The options beyond the paper, as asked (all off for a request that asks for
+    /// none), except `scores`: whether the response carries scores, i.e. the request
+    /// set [`FLAG_SCORES`] or its method's preset scores its samples (`Improved`).
+    pub options: Options,
+    /// Which map of the time of day the request asks for.
+    pub map_time: MapTime,
+}
+
+impl Decoded {
+    /// The payload words of the response to this request for `agents` agents.
+    pub fn payload_words(&self, agents: usize) -> usize {
+        payload_words(
+            agents,
+            self.params.k,
+            self.params.steps(),
+            self.options.scores,
+        )
+    }
+}
+
 /// Validate a predict request and decode its parameters; the agents' start states are
 /// left in `scratch` ([`DecodeScratch::states`]). Checks, in order: version, kind,
-/// method and heading rule, parameters (finite, then in range), `k`, steps, agents, then
-/// every row. The map name is checked by the caller (who holds the maps).
+/// method and heading rule, flags and time mode, parameters and options (finite, then
+/// in range), `k`, steps, agents (and the cost of a method dearer than CLiFF-LHMP),
+/// then every row. The map name is checked by the caller (who holds the maps).
 ///
 /// Each agent starts at its last row's position and time; its speed and heading come
 /// from the speed/heading columns when its rows carry them, else from the positions
@@ -652,31 +877,38 @@ pub fn decode_request(
     rows: &[Observation],
     limits: &Limits,
     scratch: &mut DecodeScratch,
-) -> Result<Params, Rejection> {
+) -> Result<Decoded, Rejection> {
     use Status::*;
     scratch.states.clear();
     if h.version != PROTOCOL_VERSION {
-        return Err(Rejection::new(BadVersion, Field::Version));
+        return Err(Rejection::over(
+            BadVersion,
+            Field::Version,
+            PROTOCOL_VERSION,
+        ));
     }
     if h.kind != KIND_PREDICT {
         return Err(Rejection::new(UnknownKind, Field::None));
     }
-    let method = match h.method {
-        METHOD_CLIFF => Method::Cliff,
-        METHOD_CVM => Method::Cvm,
-        METHOD_IMPROVED => Method::Improved,
-        _ => return Err(Rejection::new(UnknownMethod, Field::Method)),
+    let Some(method) = method_from_code(h.method) else {
+        return Err(Rejection::new(UnknownMethod, Field::Method));
     };
     let heading = match h.heading_rule {
         HEADING_CIRCULAR_MEAN => HeadingRule::CircularMean,
         HEADING_PAPER => HeadingRule::Paper,
         _ => return Err(Rejection::new(UnknownMethod, Field::HeadingRule)),
     };
+    if h.flags & !KNOWN_FLAGS != 0 {
+        return Err(Rejection::new(BadValue, Field::Flags));
+    }
+    let map_time = MapTime::from_wire(h.time_mode, h.time)?;
     for (v, f) in [
         (h.dt, Field::Dt),
         (h.horizon, Field::Horizon),
         (h.beta, Field::Beta),
         (h.radius, Field::Radius),
+        (h.speed_beta, Field::SpeedBeta),
+        (h.coast, Field::Coast),
     ] {
         if !finite(v) {
             return Err(Rejection::new(NonFinite, f));
@@ -694,6 +926,12 @@ pub fn decode_request(
     if h.radius <= 0.0 {
         return Err(Rejection::new(BadValue, Field::Radius));
     }
+    if h.speed_beta < 0.0 {
+        return Err(Rejection::new(BadValue, Field::SpeedBeta));
+    }
+    if h.coast < 0.0 || h.coast > h.horizon {
+        return Err(Rejection::new(BadValue, Field::Coast));
+    }
     if h.k == 0 || h.k > limits.max_k {
         return Err(Rejection::over(BadK, Field::K, limits.max_k));
     }
@@ -708,6 +946,26 @@ pub fn decode_request(
     }
     if h.agents == 0 || h.agents > limits.max_agents {
         return Err(Rejection::over(BadAgents, Field::Agents, limits.max_agents));
+    }
+    let params = Params {
+        method,
+        k: h.k as usize,
+        dt: h.dt,
+        horizon: h.horizon,
+        beta: h.beta,
+        radius: h.radius,
+        seed: h.seed,
+        heading,
+    };
+    let mut options = h.options();
+    let factor = cost_factor(&params, &options) as u64;
+    if factor > 1 {
+        // the most agents of this k and steps within the cost of the largest request
+        let per_agent = h.k as u64 * steps as u64 * factor;
+        let most = (limits.max_cost() / per_agent).min(limits.max_agents as u64) as u32;
+        if h.agents > most {
+            return Err(Rejection::over(BadAgents, Field::Agents, most));
+        }
     }
     let max_history = limits.max_history.min(MAX_HISTORY) as usize;
 
@@ -742,15 +1000,11 @@ pub fn decode_request(
             ..Rejection::new(BadLayout, Field::Agents)
         });
     }
-    Result::Ok(Params {
-        method,
-        k: h.k as usize,
-        dt: h.dt,
-        horizon: h.horizon,
-        beta: h.beta,
-        radius: h.radius,
-        seed: h.seed,
-        heading,
+    options.scores = scores_in_response(&params, &options);
+    Result::Ok(Decoded {
+        params,
+        options,
+        map_time,
     })
 }
 
@@ -879,17 +1133,20 @@ impl LocalPredictor {
         }
     }
 
-    /// Decode and predict; the result stays in [`batch`](Self::batch).
+    /// Decode and predict with the request's options
+    /// ([`cliff::predict::predict_with`]); the result stays in [`batch`](Self::batch),
+    /// with [`TrajectoryBatch::scores`] when the request asked for them. The request's
+    /// [`MapTime`] is validated; `map` is used whatever it says (a daemon serves one map
+    /// per name today, see [`MapTime`]).
     pub fn predict(
         &mut self,
         map: &CliffMap,
         header: &RequestHeader,
         rows: &[Observation],
     ) -> Result<&TrajectoryBatch, Rejection> {
-        let params = decode_request(header, rows, &self.limits, &mut self.scratch)?;
+        let d = decode_request(header, rows, &self.limits, &mut self.scratch)?;
         let states = &self.scratch.states;
-        self.batch.reshape(states.len(), params.k, params.steps());
-        predict_into(map, states, &params, self.batch.as_mut())
+        predict_with(map, states, &d.params, &d.options, &mut self.batch)
             .map_err(|_| Rejection::new(Status::Internal, Field::None))?;
         Ok(&self.batch)
     }
@@ -934,8 +1191,10 @@ mod tests {
             ..Observation::with_velocity(1.0, 2.0, 3.0, 1.5, std::f64::consts::FRAC_PI_2)
         });
         let mut s = DecodeScratch::new(&Limits::default());
-        let p = decode_request(&header(3), &rows, &Limits::default(), &mut s).unwrap();
+        let d = decode_request(&header(3), &rows, &Limits::default(), &mut s).unwrap();
+        let p = d.params;
         assert_eq!((p.k, p.steps()), (20, 30));
+        assert_eq!((d.options, d.map_time), (Options::default(), MapTime::Now));
         let st = s.states();
         assert_eq!(st.len(), 3);
         // 0.5 m per 0.4 s eastwards
@@ -953,8 +1212,10 @@ mod tests {
             });
             h.agents = 3;
             let p = decode_request(&h, &rows, &Limits::default(), &mut s).unwrap();
-            assert_eq!(p.method, method);
+            assert_eq!(p.params.method, method);
+            assert_eq!(method_from_code(method_code(method)), Some(method));
         }
+        assert_eq!(method_from_code(3), None);
     }
 
     #[test]
@@ -965,6 +1226,15 @@ mod tests {
             f(&mut h);
             reject(&h, &rows)
         };
+        let r = bad(&|h| h.version = 1);
+        assert_eq!(
+            (r.status, r.field, r.limit),
+            (Status::BadVersion, Field::Version, PROTOCOL_VERSION)
+        );
+        assert_eq!(
+            r.to_string(),
+            "bad-version (version): the daemon speaks protocol version 2"
+        );
         assert_eq!(bad(&|h| h.version = 99).status, Status::BadVersion);
         assert_eq!(bad(&|h| h.kind = 7).status, Status::UnknownKind);
         assert_eq!(bad(&|h| h.method = 5).status, Status::UnknownMethod);
@@ -981,6 +1251,56 @@ mod tests {
         assert_eq!(bad(&|h| h.dt = 1e-300).status, Status::BadSteps);
         assert_eq!(bad(&|h| h.agents = 0).status, Status::BadAgents);
         assert_eq!(bad(&|h| h.agents = 33).status, Status::BadAgents);
+        // the fields of version 2, each named
+        let named = |f: &dyn Fn(&mut RequestHeader)| {
+            let r = bad(f);
+            (r.status, r.field)
+        };
+        use Status::{BadValue, NonFinite};
+        assert_eq!(
+            named(&|h| h.speed_beta = f64::NAN),
+            (NonFinite, Field::SpeedBeta)
+        );
+        assert_eq!(
+            named(&|h| h.speed_beta = -0.5),
+            (BadValue, Field::SpeedBeta)
+        );
+        assert_eq!(
+            named(&|h| h.coast = f64::INFINITY),
+            (NonFinite, Field::Coast)
+        );
+        assert_eq!(named(&|h| h.coast = -1.0), (BadValue, Field::Coast));
+        // coast at most the horizon (12 s)
+        assert_eq!(named(&|h| h.coast = 12.5), (BadValue, Field::Coast));
+        assert_eq!(named(&|h| h.flags = 2), (BadValue, Field::Flags));
+        assert_eq!(named(&|h| h.flags = 1 << 31), (BadValue, Field::Flags));
+        assert_eq!(named(&|h| h.time_mode = 3), (BadValue, Field::TimeMode));
+        assert_eq!(named(&|h| h.time = f64::NAN), (NonFinite, Field::MapTime));
+        let r = bad(&|h| {
+            h.time_mode = TIME_AT;
+            h.time = f64::NEG_INFINITY
+        });
+        assert_eq!((r.status, r.field), (NonFinite, Field::MapTime));
+        assert_eq!(r.to_string(), "non-finite (map time)");
+        // and the good values of every new field decode
+        let mut h = header(1);
+        h.speed_beta = 2.0;
+        h.coast = 12.0;
+        h.flags = FLAG_SCORES;
+        h.set_map_time(MapTime::At(1.35e9));
+        let mut s = DecodeScratch::new(&Limits::default());
+        let d = decode_request(&h, &rows, &Limits::default(), &mut s).unwrap();
+        let want = Options {
+            speed_beta: 2.0,
+            coast: 12.0,
+            scores: true,
+            ..Options::default()
+        };
+        assert_eq!((d.options, d.map_time), (want, MapTime::At(1.35e9)));
+        h.set_map_time(MapTime::AllDay);
+        let d = decode_request(&h, &rows, &Limits::default(), &mut s).unwrap();
+        assert_eq!(d.map_time, MapTime::AllDay);
+        assert_eq!(d.payload_words(1), payload_words(1, 20, 30, true));
         // rows
         let h = header(1);
         let r = reject(&h, &walk(0, 1));
@@ -1018,12 +1338,49 @@ mod tests {
     }
 
     #[test]
+    fn a_method_that_costs_more_may_hold_fewer_agents() {
+        // k 50, 100 steps: the largest request of the default limits
+        let improved = Params {
+            method: Method::Improved,
+            k: 50,
+            horizon: 40.0,
+            ..Params::default()
+        };
+        let factor = cost_factor(&improved, &Options::default());
+        assert!(factor > 1, "the improved preset draws candidates");
+        let most = (32 * 50 * 100 / (50 * 100 * factor)) as u32;
+        let rows = |n: u32| (0..n).flat_map(|a| walk(a, 2)).collect::<Vec<_>>();
+        let mut s = DecodeScratch::new(&Limits::default());
+        let mut h = RequestHeader::from_params(&improved);
+        h.set_map_name("demo").unwrap();
+        h.agents = most + 1;
+        let r = decode_request(&h, &rows(most + 1), &Limits::default(), &mut s).unwrap_err();
+        assert_eq!(
+            (r.status, r.field, r.limit),
+            (Status::BadAgents, Field::Agents, most)
+        );
+        h.agents = most;
+        assert!(decode_request(&h, &rows(most), &Limits::default(), &mut s).is_ok());
+        // the paper's method: up to the limit on agents
+        let mut h = RequestHeader::from_params(&Params {
+            method: Method::Cliff,
+            ..improved
+        });
+        h.agents = 32;
+        assert!(decode_request(&h, &rows(32), &Limits::default(), &mut s).is_ok());
+    }
+
+    #[test]
     fn rejection_round_trips_through_the_response_header() {
         let r = Rejection::at(Status::NonFinite, Field::Time, 3, 7);
         let mut h = ResponseHeader::default();
         r.write_to(&mut h);
         assert_eq!(Rejection::from_header(&h), Some(r));
         assert_eq!(r.to_string(), "non-finite (time) at agent 3 row 7");
+        for c in 0..21 {
+            assert_eq!(Field::from_code(c) as u32, c);
+        }
+        assert_eq!(Field::from_code(21), Field::None);
         for c in 0..17 {
             let s = Status::from_code(c).unwrap();
             assert_eq!(s.code(), c);
@@ -1057,7 +1414,9 @@ mod tests {
         h.seed = 7;
         let b = lp.predict(&map, &h, &rows).unwrap().clone();
         let mut s = DecodeScratch::new(&Limits::default());
-        let p = decode_request(&h, &rows, &Limits::default(), &mut s).unwrap();
+        let p = decode_request(&h, &rows, &Limits::default(), &mut s)
+            .unwrap()
+            .params;
         let mut direct = TrajectoryBatch::new();
         cliff::predict::predict(&map, s.states(), &p, &mut direct).unwrap();
         let bits = |t: &TrajectoryBatch| {
@@ -1070,6 +1429,28 @@ mod tests {
         assert_eq!(b.shape(), direct.shape());
         assert_eq!(b.lens(), direct.lens());
         assert_eq!(bits(&b), bits(&direct));
+        assert!(b.scores().is_empty());
+
+        // with options and scores: the bytes of predict_with
+        let options = Options {
+            speed_beta: 2.0,
+            coast: 4.0,
+            scores: true,
+            ..Options::default()
+        };
+        h.set_options(&options);
+        h.set_map_time(MapTime::At(3600.0));
+        let b = lp.predict(&map, &h, &rows).unwrap().clone();
+        let mut direct = TrajectoryBatch::new();
+        predict_with(&map, s.states(), &p, &options, &mut direct).unwrap();
+        assert_eq!(b.lens(), direct.lens());
+        assert_eq!(bits(&b), bits(&direct));
+        assert_eq!(b.scores().len(), 20);
+        let score_bits =
+            |t: &TrajectoryBatch| t.scores().iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+        assert_eq!(score_bits(&b), score_bits(&direct));
+        assert!(b.scores().iter().all(|v| v.is_finite()));
+        assert!(b.scores().iter().any(|v| *v != b.scores()[0]));
     }
 
     /// Random bit patterns and random near-valid requests: decoding never panics, and
@@ -1087,6 +1468,7 @@ mod tests {
         let mut s = DecodeScratch::new(&limits);
         let mut rng = rand_xoshiro::Xoshiro256PlusPlus::seed_from_u64(17);
         let mut accepted = 0;
+        let mut with_options = 0;
         let specials = [
             0.0,
             -0.0,
@@ -1129,7 +1511,7 @@ mod tests {
             h.method = if rng.random_ratio(1, 40) {
                 rng.random()
             } else {
-                rng.random_range(0..2)
+                rng.random_range(0..3)
             };
             h.heading_rule = if rng.random_ratio(1, 40) {
                 7
@@ -1142,6 +1524,23 @@ mod tests {
             h.beta = num(&mut rng, 1.0);
             h.radius = num(&mut rng, 0.7);
             h.seed = rng.random();
+            if rng.random_ratio(1, 2) {
+                h.speed_beta = num(&mut rng, 2.0);
+            }
+            if rng.random_ratio(1, 2) {
+                h.coast = num(&mut rng, 1.5);
+            }
+            h.flags = if rng.random_ratio(1, 40) {
+                rng.random()
+            } else {
+                rng.random_range(0..2)
+            };
+            h.time_mode = if rng.random_ratio(1, 40) {
+                rng.random()
+            } else {
+                rng.random_range(0..3)
+            };
+            h.time = num(&mut rng, 1.3e9);
             let mut rows = Vec::new();
             for a in 0..agents {
                 let flags = rng.random_range(0..2);
@@ -1167,19 +1566,27 @@ mod tests {
                     });
                 }
             }
-            if let Result::Ok(p) = decode_request(&h, &rows, &limits, &mut s) {
+            if let Result::Ok(d) = decode_request(&h, &rows, &limits, &mut s) {
                 accepted += 1;
+                let (p, o) = (d.params, d.options);
+                if !o.is_paper() {
+                    with_options += 1;
+                }
                 let st = s.states();
                 assert!(st.len() <= 4 && p.k <= 5 && p.steps() <= 12 && p.steps() > 0);
+                assert!(o.coast <= p.horizon);
                 let mut pos = vec![[0f32; 2]; st.len() * p.k * p.steps()];
                 let mut lens = vec![0u32; st.len() * p.k];
+                let mut scores = vec![0f32; if o.scores { st.len() * p.k } else { 0 }];
                 let out = cliff::predict::BatchMut {
                     positions: &mut pos,
                     lens: &mut lens,
                 };
-                predict_into(&map, st, &p, out).expect("accepted requests predict");
+                cliff::predict::predict_into_with(&map, st, &p, &o, out, &mut scores)
+                    .expect("accepted requests predict");
             }
         }
         assert!(accepted > 100, "only {accepted} random requests were valid");
+        assert!(with_options > 50, "only {with_options} with options");
     }
 }

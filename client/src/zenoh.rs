@@ -185,8 +185,10 @@ impl ZenohLink {
         match reply.into_result() {
             Ok(sample) => {
                 let bytes = sample.payload().to_bytes();
-                wire::decode_response(&bytes, usize::MAX, &mut self.payload)
-                    .map_err(|e| Error::Protocol(e.to_string()))
+                wire::decode_response(&bytes, usize::MAX, &mut self.payload).map_err(|e| match e {
+                    wire::WireError::Version { found } => crate::version_mismatch(found),
+                    e => Error::Protocol(e.to_string()),
+                })
             }
             Err(err) => {
                 let text = err.payload().to_bytes();

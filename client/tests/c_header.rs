@@ -33,6 +33,11 @@ fn c_header_is_up_to_date() {
         "cliff_client_connect_zenoh",
         "CLIFF_CLIENT_ZENOH",
         "CLIFF_ERR_DEADLINE",
+        "CLIFF_METHOD_IMPROVED 2",
+        "CLIFF_FLAG_SCORES 1",
+        "CLIFF_TIME_ALL_DAY 2",
+        "cliff_prediction_best_sample",
+        "const float *scores;",
     ] {
         assert!(text.contains(f), "{f} missing from the header");
     }

@@ -1,13 +1,14 @@
 //! Property test of request decoding (issue 9): random requests, mostly valid and then
 //! perturbed field by field, go through `decode_request` with the default limits; none
-//! panics, and every accepted one predicts on the demo map with the shape it asked for.
+//! panics, and every accepted one predicts (with its options and scores) on the demo
+//! map with the shape it asked for.
 //! Seeded, so a failure reproduces; `fuzz/` holds the long-running fuzz target.
 
 use cliff::map::CliffMap;
-use cliff::predict::{TrajectoryBatch, predict_into};
+use cliff::predict::{TrajectoryBatch, predict_with};
 use cliff_client::protocol::{
-    DecodeScratch, FLAG_VELOCITY, KIND_PREDICT, Limits, MAX_HISTORY, Observation, PROTOCOL_VERSION,
-    RequestHeader, decode_request,
+    DecodeScratch, FLAG_SCORES, FLAG_VELOCITY, KIND_PREDICT, Limits, MAX_HISTORY, Observation,
+    PROTOCOL_VERSION, RequestHeader, decode_request,
 };
 use rand::{Rng, RngExt, SeedableRng};
 use rand_xoshiro::Xoshiro256PlusPlus;
@@ -34,16 +35,22 @@ fn odd(rng: &mut impl Rng) -> f64 {
 
 /// A valid request in the demo hall, small enough to predict quickly.
 fn valid(rng: &mut impl Rng) -> (RequestHeader, Vec<Observation>) {
+    let horizon = rng.random_range(0.0..8.0);
     let h = RequestHeader {
         k: rng.random_range(1..=6),
         agents: rng.random_range(1..=4),
         dt: [0.4, 1.0, 0.1][rng.random_range(0..3)],
-        horizon: rng.random_range(0.0..8.0),
+        horizon,
         radius: rng.random_range(0.1..3.0),
         beta: rng.random_range(0.0..3.0),
-        method: rng.random_range(0..2),
+        method: rng.random_range(0..3),
         heading_rule: rng.random_range(0..2),
         seed: rng.random(),
+        speed_beta: [0.0, rng.random_range(0.0..4.0)][rng.random_range(0..2)],
+        coast: [0.0, rng.random_range(0.0..=horizon)][rng.random_range(0..2)],
+        flags: rng.random_range(0..2) * FLAG_SCORES,
+        time_mode: rng.random_range(0..3),
+        time: rng.random_range(1.0e9..2.0e9),
         ..RequestHeader::default()
     };
     let mut rows = Vec::new();
@@ -70,8 +77,8 @@ fn valid(rng: &mut impl Rng) -> (RequestHeader, Vec<Observation>) {
 
 /// Perturb one thing of the request.
 fn perturb(h: &mut RequestHeader, rows: &mut Vec<Observation>, rng: &mut impl Rng) {
-    match rng.random_range(0..14) {
-        0 => h.version = rng.random_range(0..3),
+    match rng.random_range(0..18) {
+        0 => h.version = rng.random_range(0..4),
         1 => h.kind = rng.random_range(0..3),
         2 => h.method = rng.random_range(0..4),
         3 => h.heading_rule = rng.random_range(0..4),
@@ -81,6 +88,13 @@ fn perturb(h: &mut RequestHeader, rows: &mut Vec<Observation>, rng: &mut impl Rn
         7 => h.horizon = odd(rng),
         8 => h.beta = odd(rng),
         9 => h.radius = odd(rng),
+        13 => h.speed_beta = odd(rng),
+        14 => h.coast = [odd(rng), h.horizon + 0.5][rng.random_range(0..2)],
+        15 => h.flags = [2, 3, u32::MAX][rng.random_range(0..3)],
+        16 => {
+            h.time_mode = rng.random_range(0..5);
+            h.time = odd(rng);
+        }
         10 if !rows.is_empty() => {
             let r = rng.random_range(0..rows.len());
             match rng.random_range(0..6) {
@@ -133,8 +147,10 @@ fn random_requests_never_panic_and_accepted_ones_predict() {
             }
         }
         match decode_request(&h, &rows, &limits, &mut scratch) {
-            Ok(params) => {
+            Ok(decoded) => {
+                let (params, options) = (decoded.params, decoded.options);
                 accepted += 1;
+                assert!(options.validate().is_ok() && options.coast <= params.horizon);
                 assert_eq!(h.version, PROTOCOL_VERSION);
                 assert_eq!(h.kind, KIND_PREDICT);
                 assert!(params.k >= 1 && params.k <= limits.max_k as usize);
@@ -142,10 +158,17 @@ fn random_requests_never_panic_and_accepted_ones_predict() {
                 assert!(steps >= 1 && steps <= limits.max_steps as usize);
                 let states = scratch.states();
                 assert_eq!(states.len(), h.agents as usize);
-                batch.reshape(states.len(), params.k, steps);
-                predict_into(&map, states, &params, batch.as_mut())
+                predict_with(&map, states, &params, &options, &mut batch)
                     .unwrap_or_else(|e| panic!("accepted but not predicted: {e:?} {h:?}"));
                 assert_eq!(batch.shape(), (states.len(), params.k, steps));
+                let samples = if options.scores {
+                    batch.lens().len()
+                } else {
+                    0
+                };
+                assert_eq!(batch.scores().len(), samples);
+                // -inf for absurd speeds (1e308 m/s), never NaN
+                assert!(batch.scores().iter().all(|s| !s.is_nan()), "{h:?}");
             }
             Err(_) => rejected += 1,
         }

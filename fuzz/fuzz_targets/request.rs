@@ -1,5 +1,6 @@
 //! Request decoding: arbitrary header fields and rows into `decode_request`, then, when
-//! the request is accepted, `predict_into` on the demo map, which must succeed.
+//! the request is accepted, `predict_with` (its options, scores) on the demo map, which
+//! must succeed.
 //!
 //! Limits are smaller than the daemon's defaults (4 agents, 8 samples, 25 steps) so that
 //! an accepted request predicts in microseconds; the code paths are the same.
@@ -9,7 +10,7 @@ use std::sync::LazyLock;
 
 use arbitrary::Arbitrary;
 use cliff::map::CliffMap;
-use cliff::predict::{TrajectoryBatch, predict_into};
+use cliff::predict::{TrajectoryBatch, predict_with};
 use cliff_client::protocol::{
     DecodeScratch, Limits, MAP_NAME_BYTES, Observation, PROTOCOL_VERSION, RequestHeader,
     decode_request,
@@ -90,6 +91,11 @@ struct Input {
     beta: Num,
     radius: Num,
     seed: u64,
+    speed_beta: Num,
+    coast: Num,
+    flags: Code,
+    time_mode: Code,
+    time: Num,
     rows: Vec<Row>,
 }
 
@@ -122,6 +128,11 @@ fuzz_target!(|input: Input| {
         beta: input.beta.get(),
         radius: input.radius.get(),
         seed: input.seed,
+        speed_beta: input.speed_beta.get(),
+        coast: input.coast.get(),
+        flags: input.flags.get(),
+        time_mode: input.time_mode.get(),
+        time: input.time.get(),
     };
     let rows: Vec<Observation> = input
         .rows
@@ -138,14 +149,15 @@ fuzz_target!(|input: Input| {
         })
         .collect();
     let mut scratch = DecodeScratch::new(&LIMITS);
-    let Ok(params) = decode_request(&header, &rows, &LIMITS, &mut scratch) else {
+    let Ok(decoded) = decode_request(&header, &rows, &LIMITS, &mut scratch) else {
         return;
     };
+    let (params, options) = (decoded.params, decoded.options);
     let states = scratch.states();
     assert_eq!(states.len(), header.agents as usize);
     let mut batch = TrajectoryBatch::new();
-    batch.reshape(states.len(), params.k, params.steps());
-    if let Err(e) = predict_into(&MAP, states, &params, batch.as_mut()) {
-        panic!("an accepted request does not predict: {e:?}\n{header:?}\n{params:?}");
+    if let Err(e) = predict_with(&MAP, states, &params, &options, &mut batch) {
+        panic!("an accepted request does not predict: {e:?}\n{header:?}\n{decoded:?}");
     }
+    assert_eq!(batch.scores().len(), if options.scores { batch.lens().len() } else { 0 });
 });

@@ -54,6 +54,8 @@ fn field_name(r: &Rejection) -> Option<&'static str> {
     use cliff_client::Field;
     match r.field {
         Field::None => None,
+        Field::Flags => Some("scores"),
+        Field::TimeMode | Field::MapTime => Some("time"),
         f => Some(f.name()),
     }
 }
@@ -82,6 +84,8 @@ pub fn rejection_place(r: &Rejection) -> String {
             Field::Steps => "horizon / dt",
             Field::Agents => "histories",
             Field::HeadingRule => "heading",
+            Field::Flags => "scores",
+            Field::TimeMode | Field::MapTime => "time",
             _ => f,
         });
     }
@@ -103,7 +107,13 @@ fn status_text(r: &Rejection) -> String {
             "too few rows: at least {lim} (2 rows of (t, x, y), or 1 row of (t, x, y, speed, heading))"
         ),
         HistoryNotIncreasing => "times must strictly increase".into(),
-        BadValue => "is out of range (dt and radius must be positive; beta, horizon and speeds not negative)".into(),
+        BadValue => match r.field {
+            cliff_client::Field::Coast => {
+                "is out of range (coast must be between 0 and the horizon)".into()
+            }
+            cliff_client::Field::SpeedBeta => "is out of range (must not be negative)".into(),
+            _ => "is out of range (dt and radius must be positive; beta, horizon and speeds not negative)".into(),
+        },
         HistoryTooLong => format!("more than {lim} rows"),
         _ => r.status.name().to_string(),
     }

@@ -1,8 +1,8 @@
 //! Reading the `histories` argument (a sequence of 2-D arrays) into wire rows.
 
-use cliff::predict::{HeadingRule, Method, Params};
+use cliff::predict::{HeadingRule, Method, Options, Params};
 use cliff_client::protocol::MAX_HISTORY;
-use cliff_client::{Observation, Request};
+use cliff_client::{MapTime, Observation, Request};
 use numpy::{PyReadonlyArray2, PyUntypedArray, PyUntypedArrayMethods};
 use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
@@ -142,6 +142,46 @@ pub struct PredictArgs<'a> {
     pub seed: i128,
     pub method: &'a str,
     pub heading: &'a str,
+    /// Speed kernel parameter (0: the paper's constant speed).
+    pub speed_beta: f64,
+    /// Seconds of coasting where the map has no data (0: stop there).
+    pub coast: f64,
+    /// A score per sample in the result.
+    pub scores: bool,
+    /// Which map of the time of day.
+    pub time: MapTime,
+}
+
+/// The `time` argument: `None` (or "now") for the daemon's wall clock, a number of
+/// seconds on the map's clock, or "all-day"; the error names the argument.
+pub fn time_arg(time: Option<&Bound<'_, PyAny>>) -> PyResult<MapTime> {
+    let Some(t) = time.filter(|t| !t.is_none()) else {
+        return Ok(MapTime::Now);
+    };
+    if let Ok(s) = t.extract::<String>() {
+        return match s.trim().to_ascii_lowercase().as_str() {
+            "all-day" | "all_day" | "allday" => Ok(MapTime::AllDay),
+            "now" => Ok(MapTime::Now),
+            _ => Err(PyValueError::new_err(format!(
+                "time: unknown time {s:?} (expected None or \"now\", seconds, or \"all-day\")"
+            ))),
+        };
+    }
+    if t.is_instance_of::<pyo3::types::PyBool>() {
+        return Err(PyTypeError::new_err(
+            "time: expected None, seconds or \"all-day\", got a bool",
+        ));
+    }
+    let seconds: f64 = t.extract().map_err(|_| {
+        PyTypeError::new_err(format!(
+            "time: expected None, seconds or \"all-day\", got {}",
+            t.get_type()
+                .name()
+                .map(|n| n.to_string())
+                .unwrap_or_else(|_| "another type".into())
+        ))
+    })?;
+    Ok(MapTime::At(seconds))
 }
 
 impl PredictArgs<'_> {
@@ -190,5 +230,26 @@ impl PredictArgs<'_> {
             )));
         }
         Ok(params)
+    }
+
+    /// The options beyond the paper as given (validated with the request, as the
+    /// daemon does).
+    pub fn options(&self) -> Options {
+        Options {
+            speed_beta: self.speed_beta,
+            coast: self.coast,
+            scores: self.scores,
+            ..Options::default()
+        }
+    }
+
+    /// A request against `map` with these arguments (no agents yet).
+    pub fn request(&self, map: &str) -> PyResult<Request> {
+        let params = self.params()?;
+        let mut request =
+            Request::new(map, &params).map_err(|e| PyValueError::new_err(format!("map: {e}")))?;
+        request.set_options(&self.options());
+        request.set_map_time(self.time);
+        Ok(request)
     }
 }

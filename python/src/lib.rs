@@ -34,12 +34,24 @@ use map::Map;
 ///     radius: sampling radius (m): map locations strictly closer are used.
 ///     seed: seed of the random generator; the same inputs and seed give the same
 ///         numbers (also through ``Client.predict``).
-///     method: "cliff" (CLiFF-LHMP) or "cvm" (constant velocity).
+///     method: "cliff" (CLiFF-LHMP), "cvm" (constant velocity) or "improved" (a
+///         preset of the options beyond the paper).
 ///     heading: "circular-mean" (the published code) or "paper" (the paper's formula).
+///     speed_beta: speed kernel parameter (per (m/s)^2): the speed moves towards speeds
+///         drawn from the map; 0 keeps the observed speed (the paper).
+///     coast: seconds (at most ``horizon``) a sample goes on at constant velocity where
+///         the map has no data; 0 stops it there (the paper).
+///     scores: also return a score per sample (``Prediction.scores``).
+///     time: which map of the time of day: None (the wall clock now), seconds on the
+///         map's clock (unix time, as the tracks had it) or "all-day". Checked, and
+///         the map given is used whatever the time (as ``cliffd`` does today; a
+///         time-of-day set predicts with its all-day map: pick a slice with
+///         ``map.slice_at(time)``).
 ///
 /// Returns:
 ///     Prediction with ``positions`` (float32, shape (people, k, steps, 2), NaN after
-///     each sample's end) and ``lengths`` (int64, shape (people, k)).
+///     each sample's end), ``lengths`` (int64, shape (people, k)) and, with
+///     ``scores=True``, ``scores`` (float32, shape (people, k)).
 ///
 /// Each person starts at its last row. Thousands of people in one call are fine;
 /// the GIL is released while Rust predicts.
@@ -52,7 +64,8 @@ use map::Map;
 ///     ((1, 5, 10, 2), (1, 5))
 #[pyfunction]
 #[pyo3(signature = (map, histories, *, k = 20, dt = 0.4, horizon = 12.0, beta = 1.0,
-    radius = 0.7071067811865476, seed = 0, method = "cliff", heading = "circular-mean"))]
+    radius = 0.7071067811865476, seed = 0, method = "cliff", heading = "circular-mean",
+    speed_beta = 0.0, coast = 0.0, scores = false, time = None))]
 #[allow(clippy::too_many_arguments)]
 fn predict(
     py: Python<'_>,
@@ -66,6 +79,10 @@ fn predict(
     seed: i128,
     method: &str,
     heading: &str,
+    speed_beta: f64,
+    coast: f64,
+    scores: bool,
+    time: Option<&Bound<'_, PyAny>>,
 ) -> PyResult<prediction::Prediction> {
     let args = PredictArgs {
         k,
@@ -76,6 +93,10 @@ fn predict(
         seed,
         method,
         heading,
+        speed_beta,
+        coast,
+        scores,
+        time: histories::time_arg(time)?,
     };
     prediction::predict_local(py, map.get().inner.clone(), histories, &args)
 }

@@ -3,9 +3,11 @@
 use std::sync::Arc;
 
 use cliff::map::CliffMap;
-use cliff::predict::{BatchMut, predict_into};
-use cliff_client::protocol::{DecodeScratch, Limits, MAX_HISTORY, decode_request};
-use cliff_client::{Field, Rejection, Request, Status};
+use cliff::predict::{BatchMut, predict_into_with};
+use cliff_client::protocol::{
+    DecodeScratch, Limits, MAX_HISTORY, decode_request, scores_in_response,
+};
+use cliff_client::{Field, Rejection, Status};
 use numpy::ndarray::{Array2, Array4};
 use numpy::{IntoPyArray, PyArray2, PyArray4, PyArrayMethods};
 use pyo3::exceptions::{PyMemoryError, PyValueError};
@@ -23,6 +25,10 @@ use crate::histories::{PredictArgs, add_histories};
 ///         CLiFF-LHMP sample ends where the map has no location near).
 ///     dt: time between two predicted positions (s); step j (0-based) is at
 ///         t_last + (j + 1) * dt, t_last the time of the person's last history row.
+///     scores: float32 array of shape (agents, k) when the call asked for
+///         ``scores=True`` or used ``method="improved"`` (which scores its samples),
+///         else None: the log-likelihood of each sample under the map (higher is more
+///         likely; compare the samples of one call).
 #[pyclass(module = "cliff_lhmp", frozen)]
 pub struct Prediction {
     /// float32 array (agents, k, steps, 2): the sampled positions, NaN after each
@@ -35,43 +41,47 @@ pub struct Prediction {
     /// Time between two predicted positions (s).
     #[pyo3(get)]
     dt: f64,
+    /// float32 array (agents, k): the score of each sample, or None when the call did
+    /// not ask for scores.
+    #[pyo3(get)]
+    scores: Option<Py<PyArray2<f32>>>,
     shape: (usize, usize, usize),
 }
 
 impl Prediction {
-    pub fn new(
-        positions: Py<PyArray4<f32>>,
-        lengths: Py<PyArray2<i64>>,
-        dt: f64,
-        shape: (usize, usize, usize),
-    ) -> Self {
-        Prediction {
-            positions,
-            lengths,
-            dt,
-            shape,
-        }
-    }
-
-    /// A prediction from flat buffers (positions sample-major, one length per sample).
+    /// A prediction from flat buffers (positions sample-major, one length per sample,
+    /// one score per sample when `scores` is given).
     pub fn from_flat(
         py: Python<'_>,
         shape: (usize, usize, usize),
         positions: Vec<f32>,
         lens: &[u32],
+        scores: Option<Vec<f32>>,
         dt: f64,
     ) -> PyResult<Self> {
         let (a, k, s) = shape;
-        let p = Array4::from_shape_vec((a, k, s, 2), positions)
-            .map_err(|e| PyValueError::new_err(format!("internal shape error: {e}")))?;
+        let internal = |e: numpy::ndarray::ShapeError| {
+            PyValueError::new_err(format!("internal shape error: {e}"))
+        };
+        let p = Array4::from_shape_vec((a, k, s, 2), positions).map_err(internal)?;
         let l = Array2::from_shape_vec((a, k), lens.iter().map(|&v| v as i64).collect())
-            .map_err(|e| PyValueError::new_err(format!("internal shape error: {e}")))?;
-        Ok(Prediction::new(
-            p.into_pyarray(py).unbind(),
-            l.into_pyarray(py).unbind(),
+            .map_err(internal)?;
+        let scores = match scores {
+            Some(v) => Some(
+                Array2::from_shape_vec((a, k), v)
+                    .map_err(internal)?
+                    .into_pyarray(py)
+                    .unbind(),
+            ),
+            None => None,
+        };
+        Ok(Prediction {
+            positions: p.into_pyarray(py).unbind(),
+            lengths: l.into_pyarray(py).unbind(),
             dt,
+            scores,
             shape,
-        ))
+        })
     }
 }
 
@@ -122,18 +132,53 @@ impl Prediction {
         pos.get_item(idx)
     }
 
+    /// best_sample(agent) -> Optional[int]
+    ///
+    /// The sample of person ``agent`` with the highest score (the first of equals), or
+    /// None when the call did not ask for scores.
+    fn best_sample(&self, py: Python<'_>, agent: usize) -> PyResult<Option<usize>> {
+        let (a, _, _) = self.shape;
+        if agent >= a {
+            return Err(pyo3::exceptions::PyIndexError::new_err(format!(
+                "agent: {agent} is out of range for {a} people"
+            )));
+        }
+        let Some(scores) = &self.scores else {
+            return Ok(None);
+        };
+        let scores = scores.bind(py).readonly();
+        let row = scores.as_array();
+        let row = row.row(agent);
+        let mut best: Option<usize> = None;
+        for (s, v) in row.iter().enumerate() {
+            if best.is_none_or(|b| *v > row[b]) {
+                best = Some(s);
+            }
+        }
+        Ok(best)
+    }
+
     fn __len__(&self) -> usize {
         self.shape.0
     }
 
     fn __repr__(&self) -> String {
         let (a, k, s) = self.shape;
-        format!("Prediction(agents={a}, k={k}, steps={s}, dt={})", self.dt)
+        let scores = if self.scores.is_some() {
+            ", scores"
+        } else {
+            ""
+        };
+        format!(
+            "Prediction(agents={a}, k={k}, steps={s}, dt={}{scores})",
+            self.dt
+        )
     }
 }
 
 /// The in-process predictor: decode the request exactly as `cliffd` does, then predict
-/// straight into the output arrays with the GIL released.
+/// straight into the output arrays with the GIL released (with the options and scores
+/// of [`cliff::predict::predict_with`]; the time is validated, the one map used).
 pub fn predict_local(
     py: Python<'_>,
     map: Arc<CliffMap>,
@@ -141,8 +186,7 @@ pub fn predict_local(
     args: &PredictArgs<'_>,
 ) -> PyResult<Prediction> {
     let params = args.params()?;
-    let mut request =
-        Request::new("local", &params).map_err(|e| PyValueError::new_err(e.to_string()))?;
+    let mut request = args.request("local")?;
     add_histories(py, histories, &mut request)?;
     let agents = request.agents();
     let (k, steps) = (params.k, params.steps());
@@ -177,18 +221,39 @@ pub fn predict_local(
     lens.try_reserve_exact(agents * k)
         .map_err(|_| too_large())?;
     lens.resize(agents * k, 0);
+    // the scores asked for, or those of a method that scores its samples (improved)
+    let scored = scores_in_response(&params, &args.options());
+    let mut scores: Vec<f32> = Vec::new();
+    if scored {
+        scores
+            .try_reserve_exact(agents * k)
+            .map_err(|_| too_large())?;
+        scores.resize(agents * k, 0.0);
+    }
     let header = *request.header();
     let rows = request.rows();
-    let (pos_flat, lens_flat) = (positions.as_mut_slice(), lens.as_mut_slice());
+    let (pos_flat, lens_flat, scores_flat) = (
+        positions.as_mut_slice(),
+        lens.as_mut_slice(),
+        scores.as_mut_slice(),
+    );
     py.detach(move || {
         let mut scratch = DecodeScratch::new(&limits);
-        let params = decode_request(&header, rows, &limits, &mut scratch)?;
+        let d = decode_request(&header, rows, &limits, &mut scratch)?;
         let out = BatchMut {
             positions: as_points(pos_flat),
             lens: lens_flat,
         };
         // the predictor fills every point (NaN past a sample's end)
-        predict_into(&map, scratch.states(), &params, out).map_err(|_| Rejection {
+        predict_into_with(
+            &map,
+            scratch.states(),
+            &d.params,
+            &d.options,
+            out,
+            scores_flat,
+        )
+        .map_err(|_| Rejection {
             status: Status::Internal,
             agent: None,
             row: None,
@@ -197,18 +262,14 @@ pub fn predict_local(
         })
     })
     .map_err(|r| local_rejection(&r))?;
-    let positions = Array4::from_shape_vec((agents, k, steps, 2), positions)
-        .map_err(|e| PyValueError::new_err(format!("internal shape error: {e}")))?
-        .into_pyarray(py);
-    let lengths = Array2::from_shape_vec((agents, k), lens.iter().map(|&v| v as i64).collect())
-        .map_err(|e| PyValueError::new_err(format!("internal shape error: {e}")))?
-        .into_pyarray(py);
-    Ok(Prediction::new(
-        positions.unbind(),
-        lengths.unbind(),
-        params.dt,
+    Prediction::from_flat(
+        py,
         (agents, k, steps),
-    ))
+        positions,
+        &lens,
+        scored.then_some(scores),
+        params.dt,
+    )
 }
 
 /// A flat `[x0, y0, x1, y1, ...]` slice as points.

@@ -46,6 +46,45 @@ def test_daemon_demo_map_with_every_option(daemon):
         assert remote.dt == 0.5 and remote.positions.shape == (2, 7, 18, 2)
 
 
+def test_daemon_options_scores_and_time_give_the_in_process_numbers(daemon, thor1_map, thor1_histories):
+    client = daemon.client()
+    cases = [
+        dict(method="cliff", scores=True),
+        dict(method="cliff", speed_beta=2.0, coast=6.0, scores=True, time="all-day"),
+        dict(method="cvm", scores=True, time=1_351_771_200.0),
+        dict(method="improved"),
+        dict(method="improved", scores=True, coast=3.0),
+        dict(method="cliff", speed_beta=1.0, coast=12.0),
+    ]
+    for i, kw in enumerate(cases):
+        remote = client.predict("thor1", thor1_histories, k=20, seed=i, **kw)
+        local = cliff_lhmp.predict(thor1_map, thor1_histories, k=20, seed=i, **kw)
+        np.testing.assert_array_equal(remote.lengths, local.lengths)
+        np.testing.assert_array_equal(remote.positions, local.positions)
+        scored = kw.get("scores", False) or kw["method"] == "improved"
+        if scored:
+            assert remote.scores.shape == (30, 20) and remote.scores.dtype == np.float32
+            # bit for bit
+            np.testing.assert_array_equal(remote.scores.view(np.uint32), local.scores.view(np.uint32))
+            assert remote.best_sample(3) == local.best_sample(3) == int(np.argmax(local.scores[3]))
+        else:
+            assert remote.scores is None and local.scores is None
+
+
+def test_rejected_names_the_new_fields(daemon):
+    client = daemon.client()
+    for kw, status, field in [
+        (dict(speed_beta=-1.0), "bad-value", "speed_beta"),
+        (dict(speed_beta=float("inf")), "non-finite", "speed_beta"),
+        (dict(coast=13.0), "bad-value", "coast"),
+        (dict(time=float("nan")), "non-finite", "time"),
+    ]:
+        with pytest.raises(cliff_lhmp.Rejected) as e:
+            client.predict("demo", [WALK], **kw)
+        assert (e.value.status, e.value.field) == (status, field), kw
+        assert field in str(e.value)
+
+
 def test_rejected_carries_status_and_field(daemon):
     client = daemon.client()
     with pytest.raises(cliff_lhmp.Rejected) as e:

@@ -165,6 +165,15 @@ def test_many_people_in_one_call(thor1_map, people):
         ([WALK], {"horizon": 0.1}, ValueError, r"horizon: 0.1 s is less than one step"),
         ([WALK], {"radius": -1.0}, ValueError, r"radius: -1 is not a positive number"),
         ([WALK], {"beta": float("inf")}, ValueError, r"beta: inf is not a non-negative number"),
+        ([WALK], {"speed_beta": float("nan")}, ValueError, r"speed_beta: is NaN or infinite"),
+        ([WALK], {"speed_beta": -1.0}, ValueError, r"speed_beta: is out of range"),
+        ([WALK], {"coast": -1.0}, ValueError, r"coast: is out of range \(coast must be between 0 and the horizon\)"),
+        ([WALK], {"coast": 12.5}, ValueError, r"coast: is out of range"),
+        ([WALK], {"time": float("nan")}, ValueError, r"time: is NaN or infinite"),
+        ([WALK], {"time": "yesterday"}, ValueError, r'time: unknown time "yesterday"'),
+        ([WALK], {"time": True}, TypeError, r"time: expected None, seconds or \"all-day\", got a bool"),
+        ([WALK], {"time": [1.0]}, TypeError, r"time: expected None, seconds or \"all-day\", got list"),
+        ([WALK], {"method": "improve"}, ValueError, r"method: unknown method 'improve'"),
     ],
 )
 def test_bad_input_names_the_argument(histories, kwargs, exc, match):
@@ -224,3 +233,47 @@ def test_the_gil_is_released_while_rust_predicts(thor1_map, people):
     assert count > 0.1 * rate * took[0], (
         f"{count} counts during a {took[0]:.3f} s call; alone {rate:.0f} per s"
     )
+
+
+def test_scores_rank_the_samples_and_come_with_the_improved_method(thor1_map, people):
+    hs = [rows[:9] for rows in list(people.values())[:8] if len(rows) > 9]
+    plain = cliff_lhmp.predict(thor1_map, hs, k=20, seed=3)
+    assert plain.scores is None and plain.best_sample(0) is None
+    p = cliff_lhmp.predict(thor1_map, hs, k=20, seed=3, scores=True)
+    # scores do not change the samples
+    np.testing.assert_array_equal(p.positions, plain.positions)
+    np.testing.assert_array_equal(p.lengths, plain.lengths)
+    assert p.scores.dtype == np.float32 and p.scores.shape == (len(hs), 20)
+    assert np.isfinite(p.scores).all() and len(np.unique(p.scores)) > 1
+    for a in range(len(hs)):
+        assert p.best_sample(a) == int(np.argmax(p.scores[a]))
+    assert len({p.best_sample(a) for a in range(len(hs))}) > 1
+    with pytest.raises(IndexError, match="agent: 99"):
+        p.best_sample(99)
+    assert "scores" in repr(p)
+    # the improved method scores its samples, asked or not
+    q = cliff_lhmp.predict(thor1_map, hs, k=20, seed=3, method="improved")
+    assert q.scores is not None and q.scores.shape == (len(hs), 20)
+
+
+def test_coasting_keeps_samples_going_where_the_map_ends(thor1_map, people):
+    (t, x, y), speed, heading = start_row(people[12004])
+    hist = np.array([[t, x, y, speed, heading]])
+    paper = cliff_lhmp.predict(thor1_map, [hist], k=20, seed=0)
+    assert (paper.lengths < 30).any(), "this person has samples that end early"
+    coasting = cliff_lhmp.predict(thor1_map, [hist], k=20, seed=0, coast=12.0)
+    assert (coasting.lengths == 30).all()
+    assert np.isfinite(coasting.positions).all()
+    # the speed kernel changes the samples
+    speedy = cliff_lhmp.predict(thor1_map, [hist], k=20, seed=0, speed_beta=2.0)
+    assert not np.array_equal(speedy.positions, paper.positions, equal_nan=True)
+
+
+def test_time_is_checked_and_one_map_serves_every_time():
+    m = cliff_lhmp.Map.demo()
+    runs = [
+        cliff_lhmp.predict(m, [WALK], k=5, seed=2, time=t)
+        for t in (None, "now", 1_351_771_200.0, 0, "all-day", "ALL-DAY")
+    ]
+    for r in runs[1:]:
+        np.testing.assert_array_equal(r.positions, runs[0].positions)

@@ -16,6 +16,12 @@ def main() -> None:
     positions: npt.NDArray[np.float32] = p.positions
     lengths: npt.NDArray[np.int64] = p.lengths
     first: npt.NDArray[np.float32] = p.sample(0, 0)
+    scored = cliff_lhmp.predict(
+        m, [walk], k=5, method="improved", speed_beta=2.0, coast=4.0, scores=True, time="all-day"
+    )
+    scores: "npt.NDArray[np.float32] | None" = scored.scores
+    best: "int | None" = scored.best_sample(0)
+    at_noon = cliff_lhmp.predict(m, [walk], time=1_351_771_200.0)
     locs: npt.NDArray[np.float64] = m.locations
     info: Dict[str, object] = m.info()
     score: Dict[str, float] = m.score("tracks.csv", format="thor", radius=None)
@@ -27,7 +33,7 @@ def main() -> None:
     table: str = r.table([2.0, 4.0])
     try:
         c = cliff_lhmp.Client("cliff/predict", prefix=None, wait="spin", deadline=0.05)
-        q: cliff_lhmp.Prediction = c.predict("demo", [walk], k=3)
+        q: cliff_lhmp.Prediction = c.predict("demo", [walk], k=3, scores=True, time=None)
         c.reload_maps()
     except cliff_lhmp.Rejected as e:
         status: str = e.status
@@ -42,4 +48,5 @@ def main() -> None:
         zq: cliff_lhmp.Prediction = z.predict("demo", [walk], k=3, seed=2)
         transport: str = z2.transport
         print(zq, transport, z3.service)
+    print(scores, best, at_noon)
     print(positions, lengths, first, locs, info, score, report, rows, table, q if False else None)

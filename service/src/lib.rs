@@ -18,14 +18,25 @@
 //!
 //! Every request is validated ([`cliff_client::protocol::decode_request`]) before any
 //! work: at most `max_agents x max_k x max_steps` predicted positions (32 x 50 x 100 by
-//! default), and a sampling radius of at most the map's limit (4 grid steps by default).
+//! default; a method that costs a multiple of CLiFF-LHMP per position,
+//! [`cost_factor`](cliff::predict::preset::cost_factor), that many times fewer: the
+//! improved preset draws several candidates per kept sample), and a sampling radius of
+//! at most the map's limit (4 grid steps by default).
 //! Each position costs one map lookup, which tests at most `(floor(2 r / step) + 1)^2`
 //! locations through the grid scan (81 at the default limit) and usually one through a
 //! neighbour table, plus one direction draw. So the work of an accepted request is at
 //! most `agents x k x steps x (1 + 81)` distance tests and draws: about 4 ms on one
 //! core for the largest request with tables (BENCHMARKS.md), and it is done in chunks of
 //! about 0.2 ms that take turns with other requests. The response is
-//! `agents x k x (2 steps + 1)` words of shared memory, allocated once at start.
+//! `agents x k x (2 steps + 1)` words of shared memory, plus `agents x k` scores when
+//! asked for, allocated once at start.
+//!
+//! ## Protocol versions
+//!
+//! Version 2 ([`cliff_client::protocol`]) is served on `{service}/v2`. The daemon also
+//! serves version 1's service name with version 1's types ([`cliff_client::legacy`]) and
+//! answers every request there with `bad-version` (its version in `limit`); zenoh
+//! requests of another version get the same answer in the layout every version reads.
 //!
 //! The serving loop busy-polls for [`Settings::idle_spin`] after the last request, then
 //! sleeps on an iceoryx2 event that clients signal with every request. Dead clients'

@@ -21,7 +21,7 @@ use std::sync::mpsc::{self, Receiver, SyncSender, TryRecvError, TrySendError};
 use std::time::{Duration, Instant};
 
 use cliff::map::CliffMap;
-use cliff_client::protocol::{self, MAP_NAME_BYTES};
+use cliff_client::protocol::{self, MAP_NAME_BYTES, MapTime};
 use tracing::{debug, error, info, warn};
 
 use crate::settings::{MapSpec, RADIUS_LIMIT_STEPS, Settings, StartError};
@@ -43,6 +43,23 @@ impl MapEntry {
             .floor()
             .clamp(1.0, u32::MAX as f64) as u32
     }
+}
+
+/// The map a request on `entry` runs on, for the map of the time of day it asks for
+/// (`when`: [`RequestHeader::time_mode`] and [`RequestHeader::time`], validated).
+///
+/// The one place where the daemon picks a request's map. Today every entry holds one
+/// map, used whatever `when` says. Once entries hold a time-of-day map set
+/// (`cliff::map::MapSet`), this is where it picks: `set.at(t)` for [`MapTime::At`]`(t)`,
+/// `set.at(now)` for [`MapTime::Now`] (the daemon's wall clock read here: this runs when
+/// the request is accepted, as it arrives) and `set.all_day()` for [`MapTime::AllDay`];
+/// the radius limit and the neighbour table asked for ([`Registry::want_table`]) then
+/// belong to the map picked.
+///
+/// [`RequestHeader::time_mode`]: cliff_client::RequestHeader::time_mode
+/// [`RequestHeader::time`]: cliff_client::RequestHeader::time
+pub(crate) fn map_for_time(entry: &MapEntry, _when: MapTime) -> &Arc<CliffMap> {
+    &entry.map
 }
 
 /// How maps are prepared: the radius limit, the table budget and the pinned radii.

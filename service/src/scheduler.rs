@@ -1,9 +1,9 @@
 //! Requests in progress, cut into chunks that take turns.
 //!
 //! An accepted request becomes a task: its map, its decoded agents, a
-//! [`Rollout`] (the request's generator between chunks) and its output buffer (a
-//! loaned shared-memory response, or any buffer of `u32` words laid out as the protocol's
-//! payload). The serving loop runs *rounds*: each round takes tasks from the front of
+//! [`Rollout`] (the request's generator and options between chunks) and its output
+//! buffer (a loaned shared-memory response, or any buffer of `u32` words laid out as the
+//! protocol's payload: positions, lengths, and the scores when asked for). The serving loop runs *rounds*: each round takes tasks from the front of
 //! the queue, one chunk of whole agents each (about [`Settings::chunk_positions`]
 //! predicted positions), until the round holds `chunk_positions x workers` positions;
 //! the round's chunks run in parallel on the workers; tasks with agents left go to the
@@ -12,7 +12,11 @@
 //! other requests are, and large requests share the daemon evenly.
 //!
 //! Chunks of one task run in order, so the generator draws exactly as in one call:
-//! the same request and seed give the same bytes as [`cliff::predict::predict_into`].
+//! the same request and seed give the same bytes (and scores) as
+//! [`cliff::predict::predict_with`].
+//!
+//! A chunk's size counts positions at their cost: a method that costs a multiple of
+//! CLiFF-LHMP per position ([`cost_factor`]) gets chunks that many times smaller.
 //!
 //! [`Settings::chunk_positions`]: crate::Settings::chunk_positions
 
@@ -21,13 +25,14 @@ use std::sync::Arc;
 
 use cliff::map::{CliffMap, Lookup};
 use cliff::motion::State;
-use cliff::predict::{BatchMut, Params, Point, Rollout, Tables};
-use cliff_client::protocol::{DecodeScratch, Limits, RequestHeader};
+use cliff::predict::preset::cost_factor;
+use cliff::predict::{BatchMut, Options, Params, Point, Rollout, Tables};
+use cliff_client::protocol::{DecodeScratch, Decoded, Limits, RequestHeader};
 use rayon::prelude::*;
 use tracing::error;
 
 /// A task's output: the response payload, `agents x k x steps x 2` position words
-/// then `agents x k` lengths.
+/// then `agents x k` lengths, then `agents x k` scores when the request asked for them.
 pub(crate) trait Output {
     /// The payload words.
     fn words(&mut self) -> &mut [u32];
@@ -51,6 +56,9 @@ const GRID_TESTS_PER_UNIT: usize = 8;
 struct Task {
     map: Arc<CliffMap>,
     params: Params,
+    options: Options,
+    /// Times the paper's work per position ([`cost_factor`]).
+    factor: usize,
     rollout: Rollout,
     agents: usize,
     next: usize,
@@ -65,6 +73,9 @@ pub(crate) struct Slot<O> {
     pub header: RequestHeader,
     /// The decoded agents.
     pub scratch: DecodeScratch,
+    /// The rollout of the slot's last request, restarted for the next one (its
+    /// buffers, e.g. for candidates, are grown once).
+    spare: Option<Rollout>,
     task: Option<Task>,
     output: Option<O>,
 }
@@ -73,6 +84,8 @@ pub(crate) struct Slot<O> {
 pub(crate) struct Finished<'a, O> {
     pub header: &'a RequestHeader,
     pub params: &'a Params,
+    /// The payload carries the scores.
+    pub scores: bool,
     pub agents: usize,
     pub output: O,
     /// False when the prediction failed (a bug: decoding checks what it checks).
@@ -120,6 +133,7 @@ impl<O: Output> Scheduler<O> {
                 .map(|_| Slot {
                     header: RequestHeader::default(),
                     scratch: DecodeScratch::new(limits),
+                    spare: None,
                     task: None,
                     output: None,
                 })
@@ -162,25 +176,34 @@ impl<O: Output> Scheduler<O> {
     }
 
     /// Accept the request decoded into [`free_slot`](Self::free_slot): its agents are in
-    /// the slot's scratch, `output` holds the payload for `params` and them.
-    pub fn admit(&mut self, map: Arc<CliffMap>, params: &Params, output: O) {
+    /// the slot's scratch, `output` holds the payload for `decoded` and them.
+    pub fn admit(&mut self, map: Arc<CliffMap>, decoded: &Decoded, output: O) {
         let Some(i) = self.free.pop() else {
             debug_assert!(false, "admit without a free slot");
             return;
         };
+        let (params, options) = (&decoded.params, &decoded.options);
         let slot = &mut self.slots[i];
         let agents = slot.scratch.states().len();
-        let per_agent = params.k * params.steps();
+        let factor = cost_factor(params, options);
+        let per_agent = params.k * params.steps() * factor;
         // Grid-scan lookups cost more per position than a table's.
-        let weight = match (params.method, map.cached_lookup(params.radius)) {
-            (m, l @ Lookup::Grid(..)) if m.samples_map() => 1 + l.max_tests() / GRID_TESTS_PER_UNIT,
+        let looks_up = params.method.samples_map() || options.scores;
+        let weight = match map.cached_lookup(params.radius) {
+            l @ Lookup::Grid(..) if looks_up => 1 + l.max_tests() / GRID_TESTS_PER_UNIT,
             _ => 1,
         };
         let chunk = (self.chunk_positions / per_agent.saturating_mul(weight).max(1)).max(1);
         // Decoding checked the parameters, so the rollout cannot fail; if it did, the
         // request is answered as an internal error.
-        let (rollout, ok) = match Rollout::new(params) {
-            Ok(r) => (r.with_tables(Tables::CachedOnly), true),
+        let rollout = match slot.spare.take() {
+            Some(mut r) => r.restart(params, *options).map(|()| r),
+            None => Rollout::new(params)
+                .and_then(|r| r.with_options(*options))
+                .map(|r| r.with_tables(Tables::CachedOnly)),
+        };
+        let (rollout, ok) = match rollout {
+            Ok(r) => (r, true),
             Err(e) => {
                 error!("request parameters passed decoding but not the predictor: {e}");
                 (
@@ -192,6 +215,8 @@ impl<O: Output> Scheduler<O> {
         slot.task = Some(Task {
             map,
             params: *params,
+            options: *options,
+            factor,
             rollout,
             agents,
             next: 0,
@@ -206,7 +231,8 @@ impl<O: Output> Scheduler<O> {
         }
     }
 
-    /// Run one round of chunks; returns the positions predicted.
+    /// Run one round of chunks; returns the positions predicted (at their cost: times
+    /// [`cost_factor`]).
     pub fn run_round(&mut self) -> usize {
         let budget = self.chunk_positions * self.workers;
         let mut positions = 0;
@@ -216,7 +242,8 @@ impl<O: Output> Scheduler<O> {
                 .as_ref()
                 .expect("queued slots hold a task");
             let n = t.chunk.min(t.agents - t.next);
-            let p = n * t.params.k * t.params.steps();
+            // positions at their cost
+            let p = n * t.params.k * t.params.steps() * t.factor;
             if !self.round.is_empty() && positions + p > budget {
                 break;
             }
@@ -277,11 +304,13 @@ impl<O: Output> Scheduler<O> {
             f(Finished {
                 header: &slot.header,
                 params: &task.params,
+                scores: task.options.scores,
                 agents: task.agents,
                 output,
                 ok: task.ok,
                 others,
             });
+            slot.spare = Some(task.rollout);
             self.free.push(i);
         }
     }
@@ -294,6 +323,8 @@ struct Chunk<'a> {
     states: &'a [State],
     positions: &'a mut [Point],
     lens: &'a mut [u32],
+    /// The chunk's scores (`None` when the request asked for none).
+    scores: Option<&'a mut [f32]>,
     next: &'a mut usize,
     ok: &'a mut bool,
 }
@@ -303,14 +334,21 @@ impl<'a> Chunk<'a> {
         let (k, steps) = (task.params.k, task.params.steps());
         let n = task.chunk.min(task.agents - task.next);
         let (a, b) = (task.next, task.next + n);
-        let (pos_words, lens) = words.split_at_mut(task.agents * k * steps * 2);
+        let samples = task.agents * k;
+        let (pos_words, rest) = words.split_at_mut(samples * steps * 2);
+        let (lens, score_words) = rest.split_at_mut(samples);
         let positions: &mut [Point] = bytemuck::cast_slice_mut(pos_words);
+        let scores = task.options.scores.then(|| {
+            let all: &mut [f32] = bytemuck::cast_slice_mut(score_words);
+            &mut all[a * k..b * k]
+        });
         Chunk {
             map: &task.map,
             rollout: &mut task.rollout,
             states: &states[a..b],
             positions: &mut positions[a * k * steps..b * k * steps],
             lens: &mut lens[a * k..b * k],
+            scores,
             next: &mut task.next,
             ok: &mut task.ok,
         }
@@ -321,9 +359,10 @@ impl<'a> Chunk<'a> {
             positions: &mut *self.positions,
             lens: &mut *self.lens,
         };
+        let scores = self.scores.as_deref_mut();
         match self
             .rollout
-            .predict_agents(self.map, self.states, out, None)
+            .predict_agents(self.map, self.states, out, scores)
         {
             Ok(()) => *self.next += self.states.len(),
             Err(e) => {
@@ -345,7 +384,7 @@ fn recycle<'b>(mut v: Vec<Chunk<'_>>) -> Vec<Chunk<'b>> {
 #[cfg(test)]
 mod tests {
     use cliff::glam::DVec2;
-    use cliff::predict::{TrajectoryBatch, predict};
+    use cliff::predict::{Method, TrajectoryBatch, predict, predict_with};
     use cliff_client::protocol::payload_words;
 
     use super::*;
@@ -378,7 +417,19 @@ mod tests {
         agents: usize,
         params: &Params,
     ) -> Vec<State> {
+        admit_with(s, map, agents, params, &Options::default())
+    }
+
+    /// As [`admit`], with options.
+    fn admit_with(
+        s: &mut Scheduler<Vec<u32>>,
+        map: &Arc<CliffMap>,
+        agents: usize,
+        params: &Params,
+        options: &Options,
+    ) -> Vec<State> {
         let mut request = cliff_client::Request::new("demo", params).unwrap();
+        request.set_options(options);
         for w in walkers(agents) {
             request.add_agent([cliff_client::Observation::with_velocity(
                 0.0,
@@ -397,18 +448,83 @@ mod tests {
             &mut slot.scratch,
         )
         .unwrap();
-        assert_eq!(&decoded, params);
+        assert_eq!(&decoded.params, params);
+        let scored = options.scores || params.method == Method::Improved;
+        assert_eq!(decoded.options.scores, scored);
         let states = slot.scratch.states().to_vec();
-        let out = vec![0u32; payload_words(agents, params.k, params.steps())];
-        s.admit(map.clone(), params, out);
+        let out = vec![0u32; decoded.payload_words(agents)];
+        assert_eq!(
+            out.len(),
+            payload_words(agents, params.k, params.steps(), scored)
+        );
+        s.admit(map.clone(), &decoded, out);
         states
     }
 
-    /// The payload words of a batch (positions' bits, then lengths): NaN-safe equality.
+    /// The payload words of a batch (positions' bits, then lengths, then the scores'
+    /// bits when it has scores): NaN-safe equality.
     fn words_of(b: &TrajectoryBatch) -> Vec<u32> {
         let mut w: Vec<u32> = bytemuck::cast_slice(b.positions()).to_vec();
         w.extend_from_slice(b.lens());
+        w.extend(b.scores().iter().map(|v| v.to_bits()));
         w
+    }
+
+    #[test]
+    fn chunked_requests_with_options_give_the_bytes_and_scores_of_predict_with() {
+        let map = Arc::new(CliffMap::demo());
+        let params = Params {
+            k: 12,
+            horizon: 16.0,
+            seed: 23,
+            ..Params::default()
+        };
+        let cases = [
+            Options {
+                scores: true,
+                ..Options::default()
+            },
+            Options {
+                speed_beta: 2.0,
+                coast: 6.0,
+                scores: true,
+                ..Options::default()
+            },
+            Options {
+                speed_beta: 1.0,
+                coast: 16.0,
+                scores: false,
+                ..Options::default()
+            },
+        ];
+        for (i, options) in cases.iter().enumerate() {
+            for method in [Method::Cliff, Method::Cvm, Method::Improved] {
+                let params = Params { method, ..params };
+                // chunks of one agent (480 positions): 7 rounds
+                let mut s = Scheduler::<Vec<u32>>::new(2, &Limits::default(), 1, 480).unwrap();
+                let states = admit_with(&mut s, &map, 7, &params, options);
+                let mut got = None;
+                let mut rounds = 0;
+                while s.busy() {
+                    s.run_round();
+                    rounds += 1;
+                    s.take_finished(|f| {
+                        assert!(f.ok);
+                        // the improved preset scores its samples
+                        let scored = options.scores || method == Method::Improved;
+                        assert_eq!(f.scores, scored);
+                        got = Some(f.output);
+                    });
+                }
+                assert_eq!(rounds, 7, "case {i} {method}");
+                let mut whole = TrajectoryBatch::new();
+                predict_with(&map, &states, &params, options, &mut whole).unwrap();
+                let scored = options.scores || method == Method::Improved;
+                assert_eq!(whole.scores().is_empty(), !scored);
+                let got = got.expect("finished");
+                assert!(got == words_of(&whole), "case {i} {method}: differs");
+            }
+        }
     }
 
     #[test]

@@ -4,12 +4,12 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
-use cliff::predict::Params;
+use cliff::map::CliffMap;
 use cliff_client::protocol::{
-    self, Field, KIND_RELOAD, Limits, Observation, PROTOCOL_VERSION, Rejection, RequestHeader,
-    ResponseHeader, Status,
+    self, Decoded, FLAG_SCORES, Field, KIND_RELOAD, Limits, Observation, PROTOCOL_VERSION,
+    Rejection, RequestHeader, ResponseHeader, Status,
 };
-use cliff_client::{PredictService, request_event_name, response_event_name};
+use cliff_client::{PredictService, legacy, request_event_name, response_event_name};
 use iceoryx2::active_request::ActiveRequest;
 use iceoryx2::port::listener::{Listener, ListenerWaitError};
 use iceoryx2::port::notifier::{ListenerKey, Notifier};
@@ -17,7 +17,7 @@ use iceoryx2::port::server::Server;
 use iceoryx2::prelude::*;
 use tracing::{debug, info, warn};
 
-use crate::registry::{Registry, TablePolicy};
+use crate::registry::{self, Registry, TablePolicy};
 use crate::scheduler::{Finished, Output, Scheduler};
 use crate::settings::{Settings, StartError};
 
@@ -27,7 +27,26 @@ const POLITE_AFTER: Duration = Duration::from_micros(50);
 /// How often the daemon logs its traffic (when there was any).
 const STATS_INTERVAL: Duration = Duration::from_secs(10);
 
+/// How often the serving loop looks for requests of protocol version 1 (answered
+/// `bad-version`): often enough for an old client's deadline, rarely enough to cost the
+/// polling loop nothing.
+const LEGACY_POLL: Duration = Duration::from_millis(2);
+
 type Port = Server<ipc::Service, [Observation], RequestHeader, [u32], ResponseHeader>;
+type LegacyPort = Server<
+    ipc::Service,
+    [legacy::Observation],
+    legacy::RequestHeader,
+    [u32],
+    legacy::ResponseHeader,
+>;
+type LegacyService = iceoryx2::service::port_factory::request_response::PortFactory<
+    ipc::Service,
+    [legacy::Observation],
+    legacy::RequestHeader,
+    [u32],
+    legacy::ResponseHeader,
+>;
 type Active = ActiveRequest<ipc::Service, [Observation], RequestHeader, [u32], ResponseHeader>;
 type Response = iceoryx2::response_mut::ResponseMut<ipc::Service, [u32], ResponseHeader>;
 
@@ -72,6 +91,8 @@ pub struct Stats {
     pub rejected: u64,
     /// Responses that could not be sent (client gone, memory exhausted).
     pub failed: u64,
+    /// Requests of protocol version 1 (answered `bad-version`; counted in `rejected`).
+    pub old_clients: u64,
     /// Completed map reloads.
     pub reloads: u64,
     /// Chunks predicted in parallel with others (with more than one worker).
@@ -126,9 +147,12 @@ pub struct Daemon {
     scheduler: Scheduler<Out>,
     // ports before services before node (drop order)
     server: Port,
+    /// Protocol version 1's service, where every request gets `bad-version`.
+    legacy_server: LegacyPort,
     wake: Listener<ipc::Service>,
     wakeups: Wakeups,
     service: PredictService,
+    _legacy_service: LegacyService,
     _wake_service: iceoryx2::service::port_factory::event::PortFactory<ipc::Service>,
     _response_events: iceoryx2::service::port_factory::event::PortFactory<ipc::Service>,
     node: Node<ipc::Service>,
@@ -168,7 +192,7 @@ impl Daemon {
         let clients = settings.max_clients;
         let nodes = clients + 4;
         let service = node
-            .service_builder(&name(&settings.service)?)
+            .service_builder(&name(&protocol::ipc_service_name(&settings.service))?)
             .request_response::<[Observation], [u32]>()
             .request_user_header::<RequestHeader>()
             .response_user_header::<ResponseHeader>()
@@ -182,6 +206,33 @@ impl Daemon {
             .open_or_create()
             .map_err(|e| ipc("cannot open or create the service", e))?;
         if service.dynamic_config().number_of_servers() > 0 {
+            return Err(StartError::AlreadyServed(settings.service.clone()));
+        }
+        // protocol version 1's name and types, only to tell old clients the version
+        let legacy_service = node
+            .service_builder(&name(&legacy::ipc_service_name(&settings.service))?)
+            .request_response::<[legacy::Observation], [u32]>()
+            .request_user_header::<legacy::RequestHeader>()
+            .response_user_header::<legacy::ResponseHeader>()
+            .max_clients(clients)
+            .max_servers(2)
+            .max_nodes(nodes)
+            .max_active_requests_per_client(settings.max_active_requests)
+            .max_loaned_requests(1)
+            .max_response_buffer_size(1)
+            .max_borrowed_responses_per_pending_response(1)
+            .open_or_create()
+            .map_err(|e| {
+                ipc(
+                    &format!(
+                        "cannot open or create '{}' for clients of protocol version 1 \
+                         (does a daemon of version 1 serve it?)",
+                        settings.service
+                    ),
+                    e,
+                )
+            })?;
+        if legacy_service.dynamic_config().number_of_servers() > 0 {
             return Err(StartError::AlreadyServed(settings.service.clone()));
         }
         let wake_service = node
@@ -206,6 +257,12 @@ impl Daemon {
             .max_loaned_responses_per_request(1)
             .create()
             .map_err(|e| ipc("cannot create the server port", e))?;
+        let legacy_server = legacy_service
+            .server_builder()
+            .initial_max_slice_len(1)
+            .max_loaned_responses_per_request(1)
+            .create()
+            .map_err(|e| ipc("cannot create the server port of protocol version 1", e))?;
         let wake = wake_service
             .listener_builder()
             .create()
@@ -237,12 +294,14 @@ impl Daemon {
             registry,
             scheduler,
             server,
+            legacy_server,
             wake,
             wakeups: Wakeups {
                 notifier,
                 keys: Vec::with_capacity(clients * 2),
             },
             service,
+            _legacy_service: legacy_service,
             _wake_service: wake_service,
             _response_events: response_events,
             node,
@@ -332,12 +391,17 @@ impl Daemon {
         let mut next_housekeeping = last_activity;
         let mut next_cleanup = last_activity + self.settings.cleanup_interval;
         let mut next_report = last_activity + STATS_INTERVAL;
+        let mut next_legacy = last_activity;
         let mut reported = self.stats;
         while !stop.load(Ordering::Relaxed) {
             let served = self.serve_pending();
             let now = Instant::now();
             if served {
                 last_activity = now;
+            }
+            if now >= next_legacy {
+                self.answer_old_clients();
+                next_legacy = now + LEGACY_POLL;
             }
             if now >= next_housekeeping {
                 if reload.swap(false, Ordering::Relaxed) {
@@ -355,6 +419,7 @@ impl Daemon {
                         info!(
                             served = s.served - reported.served,
                             rejected = s.rejected - reported.rejected,
+                            old_clients = s.old_clients - reported.old_clients,
                             undelivered = s.failed - reported.failed,
                             clients = self.service.dynamic_config().number_of_clients(),
                             "requests in the last {} s",
@@ -376,6 +441,8 @@ impl Daemon {
                             std::thread::sleep(Duration::from_millis(1));
                         }
                     }
+                    // the signal may have come from a client of protocol version 1
+                    next_legacy = Instant::now();
                 } else if now.duration_since(last_activity) >= POLITE_AFTER {
                     // let a client on this core run (oversubscribed hosts)
                     std::thread::yield_now();
@@ -423,6 +490,51 @@ impl Daemon {
         work
     }
 
+    /// Answer every request waiting on protocol version 1's service with
+    /// `bad-version` (the daemon's version in `limit`); true when there was one. The run
+    /// loop calls this every 2 ms while it polls, and after every wake-up from sleep.
+    pub fn answer_old_clients(&mut self) -> bool {
+        let mut any = false;
+        loop {
+            let req = match self.legacy_server.receive() {
+                Ok(Some(req)) => req,
+                Ok(None) => return any,
+                Err(e) => {
+                    warn!("receiving requests of protocol version 1 failed: {e:?}");
+                    return any;
+                }
+            };
+            any = true;
+            let h = *req.user_header();
+            debug!(
+                request_id = h.request_id,
+                version = h.version,
+                "request of an old client: answered bad-version"
+            );
+            self.stats.rejected += 1;
+            self.stats.old_clients += 1;
+            let sent = req
+                .loan_slice_uninit(0)
+                .map_err(|e| format!("{e:?}"))
+                .and_then(|r| {
+                    let mut r = r.write_from_fn(|_| 0u32);
+                    *r.user_header_mut() = legacy::bad_version_response(h.request_id);
+                    r.send().map_err(|e| format!("{e:?}"))
+                });
+            if let Err(e) = sent {
+                self.stats.failed += 1;
+                debug!(request_id = h.request_id, "response not sent: {e}");
+            }
+            // a version 1 client waiting on the response event: the listener id sits where
+            // it always did
+            let woken = RequestHeader {
+                listener_id: h.listener_id,
+                ..RequestHeader::default()
+            };
+            self.wakeups.notify(&woken);
+        }
+    }
+
     /// Take the remote requests waiting now (as many as there are free slots): reject
     /// or hand them to the scheduler with a reused buffer; true when there was one.
     #[cfg(feature = "zenoh")]
@@ -445,7 +557,7 @@ impl Daemon {
                 req.rows(),
                 &mut slot.scratch,
             );
-            let (map, params) = match decoded {
+            let (map, decoded) = match decoded {
                 Ok(d) => d,
                 Err(rej) => {
                     debug!(request_id = h.request_id, "remote request rejected: {rej}");
@@ -459,14 +571,11 @@ impl Daemon {
             let agents = slot.scratch.states().len();
             let mut words = remote.buffers.pop().unwrap_or_default();
             words.clear();
-            words.resize(protocol::payload_words(agents, params.k, params.steps()), 0);
-            if params.method.samples_map() {
-                self.registry.want_table(map, params.radius);
-            }
-            let map = Arc::clone(&self.registry.entries()[map].map);
+            words.resize(decoded.payload_words(agents), 0);
+            let map = map_for(&mut self.registry, map, &decoded);
             let reply = req.into_pending();
             self.scheduler
-                .admit(map, &params, Out::Remote { reply, words });
+                .admit(map, &decoded, Out::Remote { reply, words });
         }
         any
     }
@@ -492,12 +601,12 @@ impl Daemon {
             req.payload(),
             &mut slot.scratch,
         );
-        let (map, params) = match decoded {
+        let (map, decoded) = match decoded {
             Ok(d) => d,
             Err(rej) => return self.reject(&req, &h, rej),
         };
         let agents = slot.scratch.states().len();
-        let words = protocol::payload_words(agents, params.k, params.steps());
+        let words = decoded.payload_words(agents);
         let response = match req.loan_slice_uninit(words) {
             Ok(r) => r.write_from_fn(|_| 0u32),
             Err(e) => {
@@ -508,13 +617,10 @@ impl Daemon {
                 return self.reject(&req, &h, internal());
             }
         };
-        if params.method.samples_map() {
-            self.registry.want_table(map, params.radius);
-        }
-        let map = Arc::clone(&self.registry.entries()[map].map);
+        let map = map_for(&mut self.registry, map, &decoded);
         self.scheduler.admit(
             map,
-            &params,
+            &decoded,
             Out::Ipc {
                 request: req,
                 response,
@@ -560,6 +666,7 @@ impl Daemon {
                 rh.agents = f.agents as u32;
                 rh.k = f.params.k as u32;
                 rh.steps = f.params.steps() as u32;
+                rh.flags = if f.scores { FLAG_SCORES } else { 0 };
                 // ResponseHeader::busy
                 rh.limit = (f.others + crowd).min(u32::MAX as usize) as u32;
                 stats.served += 1;
@@ -661,18 +768,35 @@ fn count_failure(stats: &mut Stats, h: &RequestHeader, sent: Result<(), String>)
     }
 }
 
-/// Validate a request against the loaded maps, their radius limits and the limits.
+/// The map an accepted request on map entry `entry` runs on
+/// ([`registry::map_for_time`]), its neighbour table asked for.
+fn map_for(registry: &mut Registry, entry: usize, decoded: &Decoded) -> Arc<CliffMap> {
+    if uses_map(decoded) {
+        registry.want_table(entry, decoded.params.radius);
+    }
+    let e = &registry.entries()[entry];
+    Arc::clone(registry::map_for_time(e, decoded.map_time))
+}
+
+/// Whether a request looks up the map at its radius: every method but constant
+/// velocity, and constant velocity when it scores its samples.
+fn uses_map(d: &Decoded) -> bool {
+    d.params.method.samples_map() || d.options.scores
+}
+
+/// Validate a request against the loaded maps, their radius limits and the limits; the
+/// map entry's index and the decoded request.
 fn decode(
     registry: &Registry,
     limits: &Limits,
     h: &RequestHeader,
     rows: &[Observation],
     scratch: &mut protocol::DecodeScratch,
-) -> Result<(usize, Params), Rejection> {
+) -> Result<(usize, Decoded), Rejection> {
     // the version and the kind are checked before anything else is read (a reload
     // request, which names no map, that reaches this point over zenoh is `unknown-kind`)
     if h.version != PROTOCOL_VERSION || h.kind != protocol::KIND_PREDICT {
-        return protocol::decode_request(h, rows, limits, scratch).map(|p| (0, p));
+        return protocol::decode_request(h, rows, limits, scratch).map(|d| (0, d));
     }
     let Some(map) = registry.find(&h.map) else {
         return Err(Rejection {
@@ -681,9 +805,9 @@ fn decode(
             ..internal()
         });
     };
-    let params = protocol::decode_request(h, rows, limits, scratch)?;
+    let decoded = protocol::decode_request(h, rows, limits, scratch)?;
     let entry = &registry.entries()[map];
-    if params.method.samples_map() && params.radius > entry.max_radius {
+    if uses_map(&decoded) && decoded.params.radius > entry.max_radius {
         return Err(Rejection {
             status: Status::RadiusTooLarge,
             field: Field::Radius,
@@ -691,7 +815,7 @@ fn decode(
             ..internal()
         });
     }
-    Ok((map, params))
+    Ok((map, decoded))
 }
 
 /// A response header for request `h`; `awake` is how long the daemon keeps polling

@@ -304,7 +304,8 @@ impl ZenohFrontend {
     /// The next queued request, decoded, or `None` when none waits. Requests that are
     /// not well-formed messages (too short, ragged, more rows than the limits allow, or
     /// another protocol version) are answered here with [`Status::BadLayout`] or
-    /// [`Status::BadVersion`] and skipped. Never blocks.
+    /// [`Status::BadVersion`] (in the layout every version reads,
+    /// [`wire::encode_bad_version`]) and skipped. Never blocks.
     pub fn try_next(&mut self) -> Option<RemoteRequest<'_>> {
         loop {
             let query = match self.rx.try_recv() {
@@ -330,13 +331,20 @@ impl ZenohFrontend {
                 Err((e, request_id)) => {
                     self.malformed += 1;
                     debug!(request_id, "malformed zenoh request: {e}");
-                    let mut h = ResponseHeader {
-                        version: PROTOCOL_VERSION,
-                        request_id,
-                        ..ResponseHeader::default()
-                    };
-                    e.rejection().write_to(&mut h);
-                    send(&self.replies, &self.counters, query, &h, &[]);
+                    let mut bytes = Vec::new();
+                    if let wire::WireError::Version { .. } = e {
+                        // in the layout every version reads
+                        wire::encode_bad_version(request_id, &mut bytes);
+                    } else {
+                        let mut h = ResponseHeader {
+                            version: PROTOCOL_VERSION,
+                            request_id,
+                            ..ResponseHeader::default()
+                        };
+                        e.rejection().write_to(&mut h);
+                        wire::encode_response(&h, &[], &mut bytes);
+                    }
+                    send_bytes(&self.replies, &self.counters, query, bytes);
                 }
             }
         }
@@ -432,6 +440,15 @@ fn send(
     // zenoh takes the buffer over (no copy), so each response has its own
     let mut bytes = Vec::new();
     wire::encode_response(h, payload, &mut bytes);
+    send_bytes(replies, counters, query, bytes)
+}
+
+fn send_bytes(
+    replies: &SyncSender<(Query, Vec<u8>)>,
+    counters: &Counters,
+    query: Query,
+    bytes: Vec<u8>,
+) -> bool {
     match replies.try_send((query, bytes)) {
         Ok(()) => true,
         Err(_) => {
@@ -496,8 +513,8 @@ mod tests {
         assert_eq!(get(&c, "scouting/multicast/enabled"), "false");
         assert_eq!(get(&c, "scouting/gossip/enabled"), "false");
         assert_eq!(get(&c, "listen/endpoints"), r#"["tcp/127.0.0.1:7447"]"#);
-        // 32 agents x 64 rows x 48 bytes + 152 + 4096
-        let want = 32 * 64 * 48 + 152 + 4096;
+        // 32 agents x 64 rows x 48 bytes + the 184-byte header + 4096
+        let want = 32 * 64 * 48 + 184 + 4096;
         assert_eq!(
             get(&c, "transport/link/rx/max_message_size"),
             want.to_string()

@@ -119,6 +119,51 @@ fn bench_prints_the_json_contract_and_verifies_every_response() {
 }
 
 #[test]
+fn bench_runs_the_improved_method_and_scores_and_verifies_them() {
+    let ns = Namespace::new("benchv2");
+    let _daemon = Daemon::start(&ns, &[]);
+    for (method, scores) in [("improved", false), ("cliff", true), ("cvm", true)] {
+        let mut args = vec![
+            "--requests",
+            "100",
+            "--warmup",
+            "5",
+            "--agents",
+            "3",
+            "--k",
+            "8",
+            "--steps",
+            "15",
+            "--method",
+            method,
+            "--wait",
+            "hybrid",
+            "--verify",
+            "--json",
+        ];
+        if scores {
+            args.push("--scores");
+        }
+        let out = bench(&ns, &args);
+        let stdout = String::from_utf8_lossy(&out.stdout);
+        assert!(
+            out.status.success(),
+            "{method}: {stdout}\n{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let v: serde_json::Value = serde_json::from_str(stdout.trim()).expect("one JSON object");
+        assert_eq!(v["method"], method);
+        assert_eq!(v["scores"], scores);
+        assert_eq!(v["completed"], 100);
+        assert_eq!(v["mismatches"], 0, "{method}: {v}");
+    }
+    let out = bench(&ns, &["--requests", "5", "--method", "nonsense"]);
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("improved"), "{err}");
+}
+
+#[test]
 fn bench_paces_requests_with_rate() {
     let ns = Namespace::new("benchrate");
     let _daemon = Daemon::start(&ns, &[]);

@@ -62,6 +62,10 @@ fn c_example_predicts_through_a_live_daemon() {
         "{stdout}"
     );
     assert!(stdout.contains("reload maps: result 0\n"), "{stdout}");
+    assert!(
+        stdout.contains("unknown time mode: result 4, status bad-value"),
+        "{stdout}"
+    );
 
     // the same request in-process gives the same first samples
     let params = Params {
@@ -102,5 +106,35 @@ fn c_example_predicts_through_a_live_daemon() {
             assert_eq!(p[0].to_bits(), w[0].to_bits(), "agent {a}");
             assert_eq!(p[1].to_bits(), w[1].to_bits(), "agent {a}");
         }
+    }
+    // the improved method with options, scores and the all-day map: the same best
+    // sample, score and length as in-process
+    let scored = req
+        .clone()
+        .method(cliff::predict::Method::Improved)
+        .speed_beta(2.0)
+        .coast(4.0)
+        .scores(true)
+        .all_day();
+    let b = lp
+        .predict(&CliffMap::demo(), scored.header(), scored.rows())
+        .unwrap();
+    assert_eq!(b.scores().len(), 10);
+    for a in 0..2 {
+        let best = b.best_sample(a).unwrap();
+        let line = stdout
+            .lines()
+            .find(|l| l.starts_with(&format!("agent {a} best sample")))
+            .unwrap_or_else(|| panic!("no scored line for agent {a}:\n{stdout}"));
+        let want = format!("agent {a} best sample {best}: score ");
+        assert!(line.starts_with(&want), "{line} (in-process: {want})");
+        let (score, points) = line[want.len()..].split_once(", ").unwrap();
+        let score: f32 = score.parse().unwrap();
+        assert_eq!(
+            score.to_bits(),
+            b.score(a, best).unwrap().to_bits(),
+            "{line}"
+        );
+        assert_eq!(points, format!("{} points", b.len(a, best)), "{line}");
     }
 }

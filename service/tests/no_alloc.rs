@@ -1,5 +1,5 @@
 //! In the steady state our code allocates nothing per request, in the daemon or the
-//! client: a counting allocator (daemon and client are threads of this process here, so
+//! client, whatever the method, options and scores: a counting allocator (daemon and client are threads of this process here, so
 //! one counter sees both) sees only iceoryx2 0.10's own three small allocations per
 //! round trip (it boxes the shared state of every loaned request, received request and
 //! loaned response: 48 + 24 + 48 bytes, traced with backtraces when this test was
@@ -69,8 +69,20 @@ fn round_trips_do_not_allocate_in_the_steady_state() {
         assert!(Instant::now() < end, "daemon did not start");
         std::thread::sleep(Duration::from_millis(5));
     }
-    let requests: Vec<_> = (0..8)
-        .map(|i| demo_request(i, 1 + i as usize % 3, 10, Method::Cliff))
+    // the paper's method, the options with scores, and the improved method (whose
+    // candidates need buffers: grown once per request slot, then reused)
+    let requests: Vec<_> = (0..12)
+        .map(|i| {
+            let agents = 1 + i as usize % 3;
+            match i % 3 {
+                0 => demo_request(i, agents, 10, Method::Cliff),
+                1 => demo_request(i, agents, 10, Method::Cliff)
+                    .speed_beta(2.0)
+                    .coast(4.0)
+                    .scores(true),
+                _ => demo_request(i, agents, 10, Method::Improved),
+            }
+        })
         .collect();
     for wait in [WaitMode::Spin, WaitMode::Hybrid, WaitMode::Block] {
         let mut client: Client = ns.connect(wait);

@@ -119,7 +119,7 @@ fn a_client_moves_to_another_thread_and_can_be_shared() {
 use std::time::Duration;
 
 use cliff::eval::dataset::{Format, read_tracks};
-use cliff_client::protocol::{FLAG_VELOCITY, Field, METHOD_CVM};
+use cliff_client::protocol::{FLAG_SCORES, FLAG_VELOCITY, Field, METHOD_CVM, TIME_AT};
 use cliff_client::{Error, Observation, Request, RequestHeader, Status};
 
 /// A request in wire form with one or two agents walking in the demo hall.
@@ -156,10 +156,77 @@ fn every_kind_of_bad_request_gets_its_status_and_the_daemon_keeps_serving() {
     );
     let cases: Vec<Case> = vec![
         (
-            "version",
-            Box::new(|h, _| h.version = 2),
+            "version 1",
+            Box::new(|h, _| h.version = 1),
             Status::BadVersion,
+            Some(2),
+        ),
+        (
+            "version 3",
+            Box::new(|h, _| h.version = 3),
+            Status::BadVersion,
+            Some(2),
+        ),
+        (
+            "NaN speed_beta",
+            Box::new(|h, _| h.speed_beta = f64::NAN),
+            Status::NonFinite,
             None,
+        ),
+        (
+            "negative speed_beta",
+            Box::new(|h, _| h.speed_beta = -0.1),
+            Status::BadValue,
+            None,
+        ),
+        (
+            "infinite coast",
+            Box::new(|h, _| h.coast = f64::INFINITY),
+            Status::NonFinite,
+            None,
+        ),
+        (
+            "negative coast",
+            Box::new(|h, _| h.coast = -1.0),
+            Status::BadValue,
+            None,
+        ),
+        (
+            "coast beyond the horizon",
+            Box::new(|h, _| h.coast = h.horizon + 0.4),
+            Status::BadValue,
+            None,
+        ),
+        (
+            "unknown flag",
+            Box::new(|h, _| h.flags = 1 << 5),
+            Status::BadValue,
+            None,
+        ),
+        (
+            "unknown time mode",
+            Box::new(|h, _| h.time_mode = 9),
+            Status::BadValue,
+            None,
+        ),
+        (
+            "NaN time",
+            Box::new(|h, _| {
+                h.time_mode = TIME_AT;
+                h.time = f64::NAN
+            }),
+            Status::NonFinite,
+            None,
+        ),
+        (
+            "radius over the map's limit with CVM and scores (they look the map up)",
+            Box::new(move |h, _| {
+                h.method = METHOD_CVM;
+                h.flags = FLAG_SCORES;
+                h.radius = 4.0 * step + 0.01
+            }),
+            Status::RadiusTooLarge,
+            Some((4000.0 * step) as u32),
         ),
         (
             "unknown map",

@@ -12,7 +12,8 @@ use cliff::map::CliffMap;
 use cliff::predict::{Method, Params};
 use cliff_client::protocol::{KIND_RELOAD, RequestHeader, ResponseHeader};
 use cliff_client::{
-    Client, ClientOptions, Error, Field, Observation, Request, Status, WaitMode, wire,
+    Client, ClientOptions, Error, Field, MapTime, Observation, PROTOCOL_VERSION, Request, Status,
+    WaitMode, wire,
 };
 use common::*;
 use zenoh::Wait;
@@ -170,6 +171,26 @@ fn remote_answers_are_identical_to_in_process_and_to_iceoryx2() {
     assert_eq!(shape, (32, 50, 100));
     let p = far.predict(&big).expect("largest request");
     assert_eq!(bits(p.positions(), p.lens()), want);
+    // options beyond the paper, scores and the time of day: the same bytes and scores
+    for i in 0..12u64 {
+        let mut req = thor_request(&thor, 100 + i, 1 + (i as usize % 3))
+            .speed_beta([0.0, 2.0][i as usize % 2])
+            .coast([0.0, 4.0, 12.0][i as usize % 3])
+            .scores(i % 4 != 3);
+        req.set_map_time(
+            [
+                MapTime::Now,
+                MapTime::At(1.35e9 + i as f64),
+                MapTime::AllDay,
+            ][i as usize % 3],
+        );
+        let want = local_scored(&thor, &req);
+        assert_eq!(want.1.is_empty(), i % 4 == 3);
+        let p = far.predict(&req).expect("remote prediction with options");
+        assert_eq!(scored(&p), want, "request {i}: remote vs in-process");
+        let q = near.predict(&req).expect("local prediction with options");
+        assert_eq!(scored(&q), want, "request {i}: iceoryx2 vs in-process");
+    }
 }
 
 #[test]
@@ -198,6 +219,36 @@ fn every_bad_request_gets_its_status_over_zenoh() {
     let rows = good.rows();
     let cases: Vec<(RequestHeader, Status, Field)> = vec![
         (with(&|h| h.version = 9), Status::BadVersion, Field::Version),
+        (with(&|h| h.version = 1), Status::BadVersion, Field::Version),
+        (
+            with(&|h| h.speed_beta = f64::NAN),
+            Status::NonFinite,
+            Field::SpeedBeta,
+        ),
+        (
+            with(&|h| h.speed_beta = -1.0),
+            Status::BadValue,
+            Field::SpeedBeta,
+        ),
+        (
+            with(&|h| h.coast = h.horizon + 0.4),
+            Status::BadValue,
+            Field::Coast,
+        ),
+        (with(&|h| h.flags = 6), Status::BadValue, Field::Flags),
+        (
+            with(&|h| h.time_mode = 3),
+            Status::BadValue,
+            Field::TimeMode,
+        ),
+        (
+            with(&|h| {
+                h.time_mode = cliff_client::protocol::TIME_AT;
+                h.time = f64::INFINITY
+            }),
+            Status::NonFinite,
+            Field::MapTime,
+        ),
         (
             with(&|h| h.set_map_name("nowhere").unwrap()),
             Status::UnknownMap,
@@ -288,7 +339,7 @@ fn every_bad_request_gets_its_status_over_zenoh() {
         config.insert_json5(k, &v).unwrap();
     }
     let session = zenoh::open(config).wait().expect("raw session");
-    let ask = |bytes: Vec<u8>| -> ResponseHeader {
+    let ask_bytes = |bytes: Vec<u8>| -> Vec<u8> {
         let replies = session
             .get(SERVICE)
             .payload(bytes)
@@ -298,11 +349,14 @@ fn every_bad_request_gets_its_status_over_zenoh() {
             .unwrap();
         let reply = replies.recv().expect("one reply");
         let sample = reply.into_result().expect("an Ok reply");
+        assert!(replies.recv().is_err(), "exactly one reply");
+        sample.payload().to_bytes().to_vec()
+    };
+    let ask = |bytes: Vec<u8>| -> ResponseHeader {
         let mut payload = Vec::new();
-        let h = wire::decode_response(&sample.payload().to_bytes(), usize::MAX, &mut payload)
+        let h = wire::decode_response(&ask_bytes(bytes), usize::MAX, &mut payload)
             .expect("a well-formed response");
         assert!(payload.is_empty());
-        assert!(replies.recv().is_err(), "exactly one reply");
         h
     };
     let mut h = *good.header();
@@ -318,13 +372,31 @@ fn every_bad_request_gets_its_status_over_zenoh() {
     let r = ask(bytes[..bytes.len() - 5].to_vec());
     assert_eq!((status(&r), r.request_id), (Status::BadLayout, 4242));
     // another version: refused before anything else is read
-    let mut v2 = bytes[..40].to_vec();
-    v2[0] = 2;
-    let r = ask(v2);
+    let mut v3 = bytes[..40].to_vec();
+    v3[0] = 3;
+    let r = ask(v3);
     assert_eq!(
-        (status(&r), r.field),
-        (Status::BadVersion, Field::Version as u32)
+        (status(&r), r.field, r.limit),
+        (Status::BadVersion, Field::Version as u32, PROTOCOL_VERSION)
     );
+    // a client of version 1 (its 152-byte header, two rows) gets bad-version in the 48
+    // bytes version 1 reads: version 2, the request's id, limit 2
+    let mut v1 = bytes[..152].to_vec();
+    v1[0..4].copy_from_slice(&1u32.to_le_bytes());
+    v1.extend_from_slice(&bytes[wire::REQUEST_HEADER_BYTES..][..2 * wire::ROW_BYTES]);
+    let reply = ask_bytes(v1);
+    assert_eq!(reply.len(), 48);
+    let word = |i: usize| u32::from_le_bytes(reply[i..i + 4].try_into().unwrap());
+    assert_eq!(
+        (word(0), word(4), word(36), word(40)),
+        (
+            PROTOCOL_VERSION,
+            Status::BadVersion.code(),
+            Field::Version as u32,
+            PROTOCOL_VERSION
+        )
+    );
+    assert_eq!(&reply[8..16], &4242u64.to_le_bytes());
     // more rows than --max-agents 4 x 64 history rows: refused before decoding
     let mut huge = bytes[..wire::REQUEST_HEADER_BYTES].to_vec();
     huge.resize(wire::REQUEST_HEADER_BYTES + 257 * wire::ROW_BYTES, 0);
@@ -348,6 +420,22 @@ fn every_bad_request_gets_its_status_over_zenoh() {
     let (_, (pos, lens)) = local_bits(&CliffMap::demo(), &good);
     let (p, l) = payload.split_at(pos.len());
     assert_eq!((p, l), (&pos[..], &lens[..]));
+    // and with scores, they follow the lengths
+    h.flags = cliff_client::protocol::FLAG_SCORES;
+    wire::encode_request(&h, rows, &mut bytes);
+    let replies = session
+        .get(SERVICE)
+        .payload(bytes)
+        .consolidation(zenoh::query::ConsolidationMode::None)
+        .timeout(Duration::from_secs(5))
+        .wait()
+        .unwrap();
+    let sample = replies.recv().unwrap().into_result().unwrap();
+    let r = wire::decode_response(&sample.payload().to_bytes(), usize::MAX, &mut payload).unwrap();
+    assert_eq!((status(&r), r.flags), (Status::Ok, 1));
+    let (_, want_scores, _) = local_scored(&CliffMap::demo(), &good.clone().scores(true));
+    assert_eq!(want_scores.len(), 2 * 10);
+    assert_eq!(&payload[pos.len() + lens.len()..], &want_scores[..]);
 }
 
 #[test]

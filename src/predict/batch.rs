@@ -130,6 +130,29 @@ impl TrajectoryBatch {
         Some(best)
     }
 
+    /// Set the scores of a batch filled from elsewhere (a daemon's response, through
+    /// [`as_mut`](Self::as_mut)): one per sample of the current shape, or `None` for
+    /// none. `Err` names a length that is not `agents x k`.
+    pub fn set_scores(&mut self, scores: Option<&[f32]>) -> Result<(), PredictError> {
+        let Some(scores) = scores else {
+            self.scores.clear();
+            return Ok(());
+        };
+        if scores.len() != self.lens.len() {
+            return Err(PredictError::Param {
+                name: "scores",
+                why: format!(
+                    "{} scores for a batch of {} samples",
+                    scores.len(),
+                    self.lens.len()
+                ),
+            });
+        }
+        self.try_size_scores(true)?;
+        self.scores.copy_from_slice(scores);
+        Ok(())
+    }
+
     /// Size the score buffer for the current shape (`true`) or empty it (`false`).
     pub(super) fn try_size_scores(&mut self, on: bool) -> Result<(), PredictError> {
         if on {

@@ -117,6 +117,20 @@ impl Rollout {
         Ok(self)
     }
 
+    /// Start over with `params` and `options`, as
+    /// `Rollout::new(params)?.with_options(options)?` would (checked, the generator
+    /// seeded from `params.seed`), keeping the neighbour-table path and the buffers grown
+    /// so far: a server that keeps one rollout per request slot allocates nothing per
+    /// request. On `Err` the rollout is unchanged.
+    pub fn restart(&mut self, params: &Params, options: Options) -> Result<(), PredictError> {
+        params.validate()?;
+        options.validate()?;
+        self.asked = *params;
+        (self.params, self.options) = preset::resolve(params, &options);
+        self.rng = Xoshiro256PlusPlus::seed_from_u64(params.seed);
+        Ok(())
+    }
+
     /// The same rollout with another neighbour-table path.
     pub fn with_tables(mut self, tables: Tables) -> Self {
         self.tables = tables;
@@ -791,6 +805,82 @@ mod tests {
                 }
             }
         }
+    }
+
+    #[test]
+    fn a_restarted_rollout_predicts_as_a_new_one() {
+        let (map, agents) = thor_agents();
+        let n = agents.len();
+        let first = Params {
+            k: 6,
+            seed: 1,
+            ..Params::default()
+        };
+        let improved = Params {
+            method: Method::Improved,
+            k: 5,
+            seed: 8,
+            ..Params::default()
+        };
+        let asked = [
+            (first, Options::default()),
+            (
+                improved,
+                Options {
+                    coast: 3.0,
+                    ..Options::default()
+                },
+            ),
+            (
+                Params {
+                    method: Method::Cliff,
+                    ..improved
+                },
+                Options {
+                    speed_beta: 2.0,
+                    candidates: 4,
+                    scores: true,
+                    ..Options::default()
+                },
+            ),
+        ];
+        let mut rollout = Rollout::new(&first)
+            .unwrap()
+            .with_tables(Tables::CachedOnly);
+        for (params, options) in asked {
+            rollout.restart(&params, options).unwrap();
+            let mut whole = TrajectoryBatch::new();
+            predict_with(&map, &agents, &params, &options, &mut whole).unwrap();
+            let mut again = TrajectoryBatch::new();
+            again.reshape(n, params.k, params.steps());
+            let mut scores = vec![0.0f32; n * params.k];
+            rollout
+                .predict_agents(&map, &agents, again.as_mut(), Some(&mut scores))
+                .unwrap();
+            assert_eq!(again.lens(), whole.lens(), "{params:?} {options:?}");
+            assert!(
+                whole
+                    .positions()
+                    .iter()
+                    .zip(again.positions())
+                    .all(|(a, b)| a.map(f32::to_bits) == b.map(f32::to_bits)),
+                "{params:?} {options:?}"
+            );
+            if !whole.scores().is_empty() {
+                assert_eq!(whole.scores(), &scores[..]);
+            }
+        }
+        // a bad restart leaves the rollout as it was
+        let before = rollout.clone();
+        let bad = Options {
+            coast: -1.0,
+            ..Options::default()
+        };
+        assert!(rollout.restart(&first, bad).is_err());
+        assert_eq!(
+            (rollout.params(), rollout.options()),
+            (before.params(), before.options())
+        );
     }
 
     #[test]

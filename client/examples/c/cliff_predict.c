@@ -1,6 +1,7 @@
 /* A C client of cliffd: predicts two people in the demo hall and prints the first
- * sample of each, shows how a rejected request reads, and asks the daemon to reload
- * its maps.
+ * sample of each, asks again with the options beyond the paper and a score per sample
+ * and prints the most likely sample of each, shows how rejected requests read, and asks
+ * the daemon to reload its maps.
  *
  * Build (from the repository root, after `cargo build --release -p cliff-client`):
  *   gcc client/examples/c/cliff_predict.c -I client/include \
@@ -72,6 +73,33 @@ int main(int argc, char **argv) {
     }
     cliff_prediction_release(client);
 
+    /* the improved method with speed kernel, coasting and a score per sample, on the
+     * all-day map */
+    CliffParams scored = params;
+    scored.method = CLIFF_METHOD_IMPROVED;
+    scored.speed_beta = 2.0;
+    scored.coast = 4.0;
+    scored.flags = CLIFF_FLAG_SCORES;
+    scored.time_mode = CLIFF_TIME_ALL_DAY;
+    cliff_request_set_params(request, &scored);
+    rc = cliff_predict(client, request, &p);
+    if (rc != CLIFF_OK || p.scores == NULL) {
+        fprintf(stderr, "scored predict failed (%d): %s\n", rc, cliff_last_error());
+        return 1;
+    }
+    for (uint32_t a = 0; a < p.agents; a++) {
+        int64_t best = cliff_prediction_best_sample(&p, a);
+        printf("agent %u best sample %lld: score %.9g, %u points\n", a, (long long)best,
+               p.scores[a * p.k + (uint32_t)best], p.lens[a * p.k + (uint32_t)best]);
+    }
+    cliff_prediction_release(client);
+
+    /* a time mode the daemon does not know: refused, naming the status */
+    scored.time_mode = 7;
+    cliff_request_set_params(request, &scored);
+    int bad_time = cliff_predict(client, request, &p);
+    printf("unknown time mode: result %d, status %s\n", bad_time, cliff_status_name(p.status));
+
     /* a request for a map the daemon does not have */
     CliffRequest *bad = cliff_request_new("no-such-map", &params);
     cliff_request_add_agent(bad, 3, t1, x1, y1, NULL, NULL);
@@ -87,5 +115,6 @@ int main(int argc, char **argv) {
     cliff_request_free(bad);
     cliff_request_free(request);
     cliff_client_free(client);
-    return rc == CLIFF_ERR_REJECTED && reload == CLIFF_OK ? 0 : 1;
+    return rc == CLIFF_ERR_REJECTED && bad_time == CLIFF_ERR_REJECTED && reload == CLIFF_OK ? 0
+                                                                                      : 1;
 }

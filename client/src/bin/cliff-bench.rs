@@ -72,9 +72,15 @@ struct Args {
     #[arg(long, default_value_t = 0.4)]
     dt: f64,
 
-    /// Prediction method: cliff (CLiFF-LHMP) or cvm (constant velocity).
+    /// Prediction method: cliff (CLiFF-LHMP), cvm (constant velocity) or improved (a
+    /// preset of the options beyond the paper).
     #[arg(long, default_value = "cliff")]
     method: Method,
+
+    /// Ask for a score per sample (the response carries agents x k more words, read
+    /// with the positions; --verify compares them too).
+    #[arg(long)]
+    scores: bool,
 
     /// How clients wait: spin (busy-poll), hybrid (spin, then sleep) or block (sleep
     /// on an event). Spin gives the lowest latency but keeps a core busy per client:
@@ -186,7 +192,9 @@ fn request_pool(map: &CliffMap, a: &Args) -> Result<Vec<Request>, String> {
     let locs = &locs[..locs.len().div_ceil(2)];
     let mut pool = Vec::with_capacity(POOL);
     for i in 0..POOL {
-        let mut r = Request::new(&a.map, &params).map_err(|e| e.to_string())?;
+        let mut r = Request::new(&a.map, &params)
+            .map_err(|e| e.to_string())?
+            .scores(a.scores);
         r.set_seed(i as u64 * 7919 + 1);
         for ag in 0..a.agents {
             let l = locs[(i * 131 + ag * 17) % locs.len()];
@@ -289,6 +297,7 @@ fn run_client(
                 last_success = Instant::now();
                 out.after_last_failure += 1;
                 black_box(consume(p.agents().flat_map(|ag| ag.samples())));
+                black_box(p.scores().iter().sum::<f32>());
                 out.latencies_ns.push(t0.elapsed().as_nanos() as u64);
                 if a.verify {
                     let same = match local.predict(map, req.header(), req.rows()) {
@@ -299,6 +308,11 @@ fn run_client(
                                     .iter()
                                     .flatten()
                                     .zip(p.positions().iter().flatten())
+                                    .all(|(x, y)| x.to_bits() == y.to_bits())
+                                && b.scores().len() == p.scores().len()
+                                && b.scores()
+                                    .iter()
+                                    .zip(p.scores())
                                     .all(|(x, y)| x.to_bits() == y.to_bits())
                         }
                         Err(_) => false,
@@ -487,6 +501,7 @@ fn run(a: Args) -> Result<ExitCode, String> {
         black_box(consume((0..b.shape().0 * k).map(|s| {
             &b.positions()[s * steps..s * steps + b.lens()[s] as usize]
         })));
+        black_box(b.scores().iter().sum::<f32>());
         inproc.push(t0.elapsed().as_nanos() as u64);
     }
 
@@ -510,6 +525,7 @@ fn run(a: Args) -> Result<ExitCode, String> {
             "steps": a.steps,
             "dt": a.dt,
             "method": a.method.name(),
+            "scores": a.scores,
             "map": a.map,
             "wait": a.wait.to_string(),
             "rate_hz": a.rate,
@@ -550,13 +566,14 @@ fn run(a: Args) -> Result<ExitCode, String> {
             }
         );
         println!(
-            "  each request: {} agent(s) x k {} samples x {} steps (dt {} s, horizon {:.1} s), method {}, map {}; client wait: {}",
+            "  each request: {} agent(s) x k {} samples x {} steps (dt {} s, horizon {:.1} s), method {}{}, map {}; client wait: {}",
             a.agents,
             a.k,
             a.steps,
             a.dt,
             a.steps as f64 * a.dt,
             a.method,
+            if a.scores { " with scores" } else { "" },
             a.map,
             a.wait
         );

@@ -1,7 +1,7 @@
 """Type stubs of cliff_lhmp (the public API)."""
 
 import os
-from typing import Any, Dict, List, Optional, Sequence, Tuple, Union, final
+from typing import Any, Dict, List, Literal, Optional, Sequence, Tuple, Union, final
 
 import numpy as np
 import numpy.typing as npt
@@ -18,6 +18,8 @@ _Path = Union[str, "os.PathLike[str]"]
 _Tracks = Union[_Path, Sequence[_Path]]
 _History = Union[npt.ArrayLike, npt.NDArray[np.float64]]
 _Histories = Union[Sequence[_History], npt.NDArray[np.float64]]
+# None or "now": the wall clock; seconds on the map's clock; "all-day": the all-day map
+_Time = Union[None, float, Literal["now", "all-day"]]
 
 @final
 class Map:
@@ -55,6 +57,10 @@ class Map:
         seed: int = 0,
         method: str = "cliff",
         heading: str = "circular-mean",
+        speed_beta: float = 0.0,
+        coast: float = 0.0,
+        scores: bool = False,
+        time: _Time = None,
     ) -> Prediction: ...
 
 @final
@@ -91,7 +97,10 @@ class Prediction:
     def k(self) -> int: ...
     @property
     def steps(self) -> int: ...
+    @property
+    def scores(self) -> Optional[npt.NDArray[np.float32]]: ...
     def sample(self, agent: int, s: int) -> npt.NDArray[np.float32]: ...
+    def best_sample(self, agent: int) -> Optional[int]: ...
     def __len__(self) -> int: ...
 
 @final
@@ -140,6 +149,10 @@ class Client:
         seed: int = 0,
         method: str = "cliff",
         heading: str = "circular-mean",
+        speed_beta: float = 0.0,
+        coast: float = 0.0,
+        scores: bool = False,
+        time: _Time = None,
     ) -> Prediction: ...
     def reload_maps(self) -> None: ...
     @property
@@ -159,6 +172,10 @@ def predict(
     seed: int = 0,
     method: str = "cliff",
     heading: str = "circular-mean",
+    speed_beta: float = 0.0,
+    coast: float = 0.0,
+    scores: bool = False,
+    time: _Time = None,
 ) -> Prediction: ...
 def build_map(
     tracks: _Tracks, *, format: str = "thor", grid: float = 1.0, radius: float = 1.0

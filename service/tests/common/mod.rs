@@ -246,6 +246,36 @@ pub fn local_bits(map: &CliffMap, request: &Request) -> Answer {
     (b.shape(), bits(b.positions(), b.lens()))
 }
 
+/// The in-process answer to `request` on `map` with its scores' bit patterns (empty
+/// when the request asks for none) and each agent's best sample.
+pub fn local_scored(map: &CliffMap, request: &Request) -> (Answer, Vec<u32>, Vec<Option<usize>>) {
+    let mut lp = cliff_client::LocalPredictor::default();
+    let b = lp
+        .predict(map, request.header(), request.rows())
+        .expect("request is valid in-process");
+    let best = (0..b.shape().0).map(|a| b.best_sample(a)).collect();
+    (
+        (b.shape(), bits(b.positions(), b.lens())),
+        score_bits(b.scores()),
+        best,
+    )
+}
+
+/// Bit patterns of scores.
+pub fn score_bits(scores: &[f32]) -> Vec<u32> {
+    scores.iter().map(|v| v.to_bits()).collect()
+}
+
+/// A prediction's answer in the form of [`local_scored`].
+pub fn scored(p: &cliff_client::Prediction<'_>) -> (Answer, Vec<u32>, Vec<Option<usize>>) {
+    let best = (0..p.shape().0).map(|a| p.best_sample(a)).collect();
+    (
+        (p.shape(), bits(p.positions(), p.lens())),
+        score_bits(p.scores()),
+        best,
+    )
+}
+
 /// Path of a file in the shared data folder beside the checkout.
 pub fn shared_data(rel: &str) -> PathBuf {
     PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../shared/data")).join(rel)
