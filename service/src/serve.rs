@@ -771,11 +771,14 @@ fn count_failure(stats: &mut Stats, h: &RequestHeader, sent: Result<(), String>)
 /// The map an accepted request on map entry `entry` runs on
 /// ([`registry::map_for_time`]), its neighbour table asked for.
 fn map_for(registry: &mut Registry, entry: usize, decoded: &Decoded) -> Arc<CliffMap> {
+    let map = Arc::clone(registry::map_for_time(
+        &registry.entries()[entry],
+        decoded.map_time,
+    ));
     if uses_map(decoded) {
-        registry.want_table(entry, decoded.params.radius);
+        registry.want_table(&map, decoded.params.radius);
     }
-    let e = &registry.entries()[entry];
-    Arc::clone(registry::map_for_time(e, decoded.map_time))
+    map
 }
 
 /// Whether a request looks up the map at its radius: every method but constant
