@@ -8,7 +8,8 @@
 //! * `cvm_thor1_person`: constant velocity on the THÖR1 person, for scale.
 //! * `..._coast`: the same with coasting (4 s) where the map has no data, no scores;
 //!   `..._scores`: with a score per sample ([`Options::scores`]); `..._speed_scores`
-//!   also with the speed kernel (speed_beta 1) and coasting (4 s).
+//!   also with the speed kernel (speed_beta 1); `..._all`: scores, the speed kernel and
+//!   coasting (4 s; coasting samples run longer, so more steps than the default).
 //!
 //! Run: `cargo bench --bench predict`
 
@@ -76,6 +77,11 @@ fn bench(c: &mut Criterion) {
     };
     let speed_scores = Options {
         speed_beta: 1.0,
+        scores: true,
+        ..Options::default()
+    };
+    let all = Options {
+        speed_beta: 1.0,
         coast: 4.0,
         scores: true,
         ..Options::default()
@@ -88,6 +94,7 @@ fn bench(c: &mut Criterion) {
         ("thor1_person_k20_30steps_coast", coast),
         ("thor1_person_k20_30steps_scores", scores),
         ("thor1_person_k20_30steps_speed_scores", speed_scores),
+        ("thor1_person_k20_30steps_all", all),
     ] {
         c.bench_function(name, |b| {
             b.iter(|| {
@@ -161,6 +168,7 @@ fn bench(c: &mut Criterion) {
     for (name, opts) in [
         ("atc_person_k20_50steps_scores", scores),
         ("atc_person_k20_50steps_speed_scores", speed_scores),
+        ("atc_person_k20_50steps_all", all),
     ] {
         c.bench_function(name, |b| {
             b.iter(|| {

@@ -6,6 +6,12 @@ Start the daemon first (it serves the built-in demo hall as `demo`):
     cargo run --release -p cliff-service --bin cliffd
     python python/examples/robot_loop_10hz.py --seconds 5
 
+or reach it over zenoh, from this host or another one (the daemon and this package
+both built with the cargo feature zenoh):
+
+    cargo run --release -p cliff-service --features zenoh --bin cliffd -- --zenoh tcp/0.0.0.0:7447
+    python python/examples/robot_loop_10hz.py --zenoh tcp/192.0.2.10:7447
+
 Each cycle appends the people's new positions to their histories (the last 8 rows
 are sent), asks the daemon for 20 samples 12 s ahead, and prints where the first
 sample of each person is 4 s from now. A cycle without a daemon, or whose answer comes
@@ -28,7 +34,22 @@ def main() -> None:
     ap.add_argument("--service", default="cliff/predict")
     ap.add_argument("--prefix", default=None, help="cliffd's --prefix, if any")
     ap.add_argument("--map", default="demo")
+    ap.add_argument("--zenoh", metavar="ENDPOINT", default=None,
+                    help="reach cliffd over zenoh at ENDPOINT (e.g. tcp/192.0.2.10:7447) "
+                         "instead of shared memory")
+    ap.add_argument("--zenoh-config", metavar="FILE", default=None,
+                    help="zenoh configuration file (TLS certificates, ...)")
+    ap.add_argument("--deadline", type=float, default=0.05, help="seconds per request")
     a = ap.parse_args()
+    if (a.zenoh or a.zenoh_config) and not cliff_lhmp.HAS_ZENOH:
+        ap.error("this cliff_lhmp was built without zenoh: "
+                 "pip install ./python -C maturin.build-args=\"--features zenoh\"")
+
+    def connect() -> cliff_lhmp.Client:
+        if a.zenoh or a.zenoh_config:
+            return cliff_lhmp.Client.connect_zenoh(a.zenoh, a.service, config=a.zenoh_config,
+                                                   deadline=a.deadline)
+        return cliff_lhmp.Client(a.service, prefix=a.prefix, deadline=a.deadline)
 
     client = None
     # three people walking through the demo hall (x from -14 to 14 m, y from -9 to 9 m)
@@ -46,7 +67,7 @@ def main() -> None:
         cycles += 1
         try:
             if client is None:
-                client = cliff_lhmp.Client(a.service, prefix=a.prefix, deadline=0.05)
+                client = connect()
             t = time.perf_counter()
             p = client.predict(a.map, [np.array(h) for h in history], k=20, dt=0.4, horizon=12.0)
             latencies.append(time.perf_counter() - t)
@@ -65,7 +86,8 @@ def main() -> None:
         print(f"{ok} of {cycles} cycles predicted; round trip p50 {np.median(lat):.0f} us, "
               f"max {lat.max():.0f} us")
     else:
-        print(f"0 of {cycles} cycles predicted (is cliffd running?)")
+        print(f"0 of {cycles} cycles predicted (is cliffd running"
+              f"{' with --zenoh' if a.zenoh else ''}?)")
 
 
 if __name__ == "__main__":

@@ -1,20 +1,34 @@
-//! `cliff_lhmp.Client`: predictions from a running `cliffd` over shared memory.
+//! `cliff_lhmp.Client`: predictions from a running `cliffd`, over shared memory on this
+//! host (iceoryx2) or over zenoh from another one (cargo feature `zenoh`).
 
+use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 use std::time::Duration;
 
 use cliff_client::{Client as RustClient, ClientOptions, WaitMode};
-use pyo3::exceptions::PyValueError;
+use pyo3::exceptions::{PyRuntimeError, PyTypeError, PyValueError};
 use pyo3::prelude::*;
+use pyo3::types::PyString;
 
-use crate::errors::client_err;
+use crate::errors::{client_err, io_err};
 use crate::histories::{PredictArgs, add_histories, time_arg};
 use crate::prediction::Prediction;
+
+/// Whether this build has the zenoh client (`cliff_lhmp.HAS_ZENOH`).
+pub const HAS_ZENOH: bool = cfg!(feature = "zenoh");
+
+/// What `Client.connect_zenoh` says in a build without the feature.
+const NO_ZENOH: &str = "this cliff_lhmp was built without zenoh (cliff_lhmp.HAS_ZENOH is False): \
+rebuild the package with the cargo feature zenoh, e.g. `maturin build --release --features zenoh` \
+in python/, or `pip install ./python -C maturin.build-args=\"--features zenoh\"`";
 
 /// A connection to the ``cliffd`` daemon serving ``service``.
 ///
 /// ``Client(service="cliff/predict", prefix=None, wait="hybrid", deadline=0.05)``
-/// connects at once and raises ``NoDaemon`` when no daemon serves the service.
+/// connects on this host over shared memory (iceoryx2) and raises ``NoDaemon`` when no
+/// daemon serves the service. ``Client.connect_zenoh("tcp/192.0.2.10:7447")`` reaches a
+/// ``cliffd --zenoh`` on another host instead (a package built with the cargo feature
+/// ``zenoh``); ``predict`` and its exceptions are the same either way.
 ///
 /// Args:
 ///     service: the daemon's ``--service`` name.
@@ -38,6 +52,11 @@ pub struct Client {
     inner: Mutex<RustClient>,
     service: String,
     deadline: Duration,
+    /// The zenoh endpoints the client connected to (empty over iceoryx2, and when a
+    /// configuration file names them).
+    endpoints: Vec<String>,
+    /// `"iceoryx2"` or `"zenoh"`.
+    transport: &'static str,
 }
 
 fn deadline_arg(seconds: f64) -> PyResult<Duration> {
@@ -48,6 +67,66 @@ fn deadline_arg(seconds: f64) -> PyResult<Duration> {
             "deadline: {seconds} is not a positive number of seconds"
         )))
     }
+}
+
+/// The `endpoint` argument of `connect_zenoh`: one endpoint, a sequence of them, or None.
+fn endpoints_arg(endpoint: Option<&Bound<'_, PyAny>>) -> PyResult<Vec<String>> {
+    const EXPECTED: &str =
+        "a str such as 'tcp/192.0.2.10:7447', a list of them, or None (the config file names them)";
+    let list = match endpoint {
+        None => Vec::new(),
+        Some(e) if e.is_instance_of::<PyString>() => vec![e.extract::<String>()?],
+        Some(e) => e.extract::<Vec<String>>().map_err(|_| {
+            PyTypeError::new_err(format!(
+                "endpoint: expected {EXPECTED}, got {}",
+                e.get_type()
+                    .name()
+                    .map(|n| n.to_string())
+                    .unwrap_or_else(|_| "?".into())
+            ))
+        })?,
+    };
+    for (i, e) in list.iter().enumerate() {
+        if e.trim().is_empty() {
+            let at = if list.len() > 1 {
+                format!("[{i}]")
+            } else {
+                String::new()
+            };
+            return Err(PyValueError::new_err(format!(
+                "endpoint{at}: empty; expected {EXPECTED}"
+            )));
+        }
+    }
+    Ok(list)
+}
+
+/// Open the zenoh client (the GIL released).
+#[cfg(feature = "zenoh")]
+fn open_zenoh(
+    py: Python<'_>,
+    endpoints: &[String],
+    config: Option<&Path>,
+    service: &str,
+    deadline: Duration,
+) -> PyResult<RustClient> {
+    let options = ClientOptions {
+        deadline,
+        ..ClientOptions::default()
+    };
+    py.detach(|| RustClient::connect_zenoh_with(endpoints, config, service, options))
+        .map_err(|e| client_err(py, e))
+}
+
+#[cfg(not(feature = "zenoh"))]
+fn open_zenoh(
+    _py: Python<'_>,
+    _endpoints: &[String],
+    _config: Option<&Path>,
+    _service: &str,
+    _deadline: Duration,
+) -> PyResult<RustClient> {
+    Err(PyRuntimeError::new_err(NO_ZENOH))
 }
 
 #[pymethods]
@@ -79,17 +158,76 @@ impl Client {
             inner: Mutex::new(client),
             service: service.to_string(),
             deadline,
+            endpoints: Vec::new(),
+            transport: "iceoryx2",
+        })
+    }
+
+    /// Client.connect_zenoh(endpoint, service="cliff/predict", *, config=None, deadline=0.05)
+    /// --
+    ///
+    /// Connect over zenoh to a ``cliffd --zenoh ENDPOINT`` on this or another host.
+    ///
+    /// Args:
+    ///     endpoint: where the daemon listens, e.g. ``"tcp/192.0.2.10:7447"`` or
+    ///         ``"tls/cliffd.lan:7447"``; a list of endpoints; or ``None`` when
+    ///         ``config`` names them (``connect.endpoints``).
+    ///     service: the daemon's ``--service`` name (its zenoh key expression).
+    ///     config: a zenoh configuration file (JSON5: TLS certificates, ...; cliff's
+    ///         defaults fill in what it does not name: client mode, no scouting).
+    ///     deadline: seconds each call may take before ``DeadlinePassed``.
+    ///
+    /// The client never listens; it blocks on its reply (no ``wait`` mode). ``predict``
+    /// gives the same numbers and raises the same exceptions as over shared memory:
+    /// ``Rejected``, ``NoDaemon`` (nothing answers at the endpoint or on the key; a
+    /// daemon that died mid-request looks the same, so ``DaemonGone`` does not occur),
+    /// ``DeadlinePassed``. ``reload_maps`` is local only (``Rejected``, status
+    /// "unknown-kind"). After the daemon restarts, the same client works again.
+    ///
+    /// Raises ``RuntimeError`` in a package built without the cargo feature ``zenoh``
+    /// (``cliff_lhmp.HAS_ZENOH`` is False): build it with
+    /// ``maturin build --release --features zenoh``.
+    ///
+    /// Example:
+    ///     >>> c = cliff_lhmp.Client.connect_zenoh("tcp/127.0.0.1:7447")
+    ///     >>> c.predict("demo", [np.array([[0.0, -10.0, 0.5], [0.4, -9.5, 0.5]])]).k
+    ///     20
+    #[staticmethod]
+    #[pyo3(signature = (endpoint, service = "cliff/predict", *, config = None, deadline = 0.05))]
+    fn connect_zenoh(
+        py: Python<'_>,
+        endpoint: Option<&Bound<'_, PyAny>>,
+        service: &str,
+        config: Option<PathBuf>,
+        deadline: f64,
+    ) -> PyResult<Self> {
+        if !HAS_ZENOH {
+            return Err(PyRuntimeError::new_err(NO_ZENOH));
+        }
+        let endpoints = endpoints_arg(endpoint)?;
+        let deadline = deadline_arg(deadline)?;
+        if let Some(path) = &config {
+            std::fs::metadata(path)
+                .map_err(|e| io_err("config", &path.display().to_string(), &e))?;
+        }
+        let client = open_zenoh(py, &endpoints, config.as_deref(), service, deadline)?;
+        Ok(Client {
+            inner: Mutex::new(client),
+            service: service.to_string(),
+            deadline,
+            endpoints,
+            transport: "zenoh",
         })
     }
 
     /// Ask the daemon for ``k`` samples per person with the map it serves as ``map``.
     /// Arguments and result are those of ``cliff_lhmp.predict`` (``method="improved"``,
     /// ``speed_beta``, ``coast``, ``scores=True``, ``time=`` included; ``time`` picks the
-    /// daemon's map of that time of day, once it serves time-of-day maps); the same
-    /// map, histories and seed give the same numbers. Raises ``Rejected`` (a ValueError,
-    /// with ``.status`` and ``.field``) when the daemon refuses the request (unknown
-    /// map, limits), ``NoDaemon``/``DaemonGone`` (ConnectionError) and
-    /// ``DeadlinePassed`` (TimeoutError).
+    /// daemon's map of that time of day); the same map, histories and seed give the
+    /// same numbers, over shared memory and over zenoh. Raises ``Rejected`` (a
+    /// ValueError, with ``.status``, ``.field``, ``.agent`` and ``.row``) when the daemon
+    /// refuses the request (unknown map, limits), ``NoDaemon``/``DaemonGone``
+    /// (ConnectionError) and ``DeadlinePassed`` (TimeoutError).
     #[pyo3(signature = (map, histories, *, k = 20, dt = 0.4, horizon = 12.0, beta = 1.0,
         radius = 0.7071067811865476, seed = 0, method = "cliff", heading = "circular-mean",
         speed_beta = 0.0, coast = 0.0, scores = false, time = None))]
@@ -163,11 +301,21 @@ impl Client {
         &self.service
     }
 
+    /// How the client reaches its daemon: "iceoryx2" (shared memory, this host) or
+    /// "zenoh".
+    #[getter]
+    fn transport(&self) -> &'static str {
+        self.transport
+    }
+
     fn __repr__(&self) -> String {
-        format!(
-            "Client(service={:?}, deadline={})",
-            self.service,
-            self.deadline.as_secs_f64()
-        )
+        let deadline = self.deadline.as_secs_f64();
+        match self.transport {
+            "zenoh" => format!(
+                "Client.connect_zenoh({:?}, service={:?}, deadline={deadline})",
+                self.endpoints, self.service
+            ),
+            _ => format!("Client(service={:?}, deadline={deadline})", self.service),
+        }
     }
 }

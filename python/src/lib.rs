@@ -106,6 +106,10 @@ fn predict(
 mod native {
     #[pymodule_export]
     use super::client::Client;
+    /// Whether this build has the zenoh client (``Client.connect_zenoh``): the cargo
+    /// feature ``zenoh`` (``maturin build --release --features zenoh``).
+    #[pymodule_export]
+    const HAS_ZENOH: bool = super::client::HAS_ZENOH;
     #[pymodule_export]
     use super::evaluation::{Evaluation, evaluate};
     #[pymodule_export]

@@ -3,10 +3,17 @@
 Paths are relative to the repository root (this file's grandparent): the real data in
 ../shared/data, the release binaries in target/release (the test script builds them
 before pytest runs; set CLIFF_BIN_DIR to use others).
+
+The zenoh tests (test_zenoh.py) need the package built with the cargo feature zenoh and
+a cliffd built with it: by default target/py/release/cliffd, which .ci/test builds (set
+CLIFF_ZENOH_CLIFFD to use another). Without either they fail, naming what is missing and
+how to build it; locally, CLIFF_SKIP_ZENOH=<reason> turns that failure into a skip that
+reports the reason (.ci/test unsets it, so CI never skips them).
 """
 
 import os
 import signal
+import socket
 import subprocess
 import threading
 import time
@@ -24,6 +31,13 @@ BIN = Path(os.environ.get("CLIFF_BIN_DIR", ROOT / "target" / "release"))
 THOR1_MAP = DATA / "thor1" / "cliffmap.csv"
 THOR1_TRACKS = DATA / "thor1" / "exp-1-run-2.csv"
 SERVICE = "cliff/pytest"
+ZENOH_CLIFFD = Path(
+    os.environ.get("CLIFF_ZENOH_CLIFFD", ROOT / "target" / "py" / "release" / "cliffd")
+)
+ZENOH_BUILD = (
+    "CARGO_TARGET_DIR=target/py cargo build --release -p cliff-service -p cliff-python "
+    "--features cliff-service/zenoh,cliff-python/zenoh --bin cliffd"
+)
 
 
 def binary(name: str) -> Path:
@@ -90,18 +104,61 @@ def _remove_matching(d: Path, prefix: str, depth: int) -> bool:
     return removed
 
 
+def zenoh_problems() -> List[str]:
+    """What keeps the zenoh tests from running: an empty list when nothing does."""
+    problems = []
+    if not cliff_lhmp.HAS_ZENOH:
+        problems.append(
+            "the installed cliff_lhmp was built without the cargo feature zenoh "
+            "(pip install ./python -C maturin.build-args=\"--features zenoh\")"
+        )
+    if not ZENOH_CLIFFD.exists():
+        problems.append(f"{ZENOH_CLIFFD} is missing (build it: {ZENOH_BUILD})")
+    else:
+        out = subprocess.run([str(ZENOH_CLIFFD), "--help"], capture_output=True, text=True,
+                             timeout=60)
+        if "--zenoh" not in out.stdout:
+            problems.append(f"{ZENOH_CLIFFD} was built without the feature zenoh ({ZENOH_BUILD})")
+    return problems
+
+
+def require_zenoh() -> None:
+    """Fail unless the zenoh tests can run; skip instead when CLIFF_SKIP_ZENOH gives a
+    reason (local use only: .ci/test unsets it)."""
+    problems = zenoh_problems()
+    if not problems:
+        return
+    reason = os.environ.get("CLIFF_SKIP_ZENOH", "").strip()
+    text = "; ".join(problems)
+    if reason:
+        pytest.skip(f"zenoh tests skipped (CLIFF_SKIP_ZENOH={reason!r}): {text}")
+    pytest.fail(f"cannot run the zenoh tests: {text} (set CLIFF_SKIP_ZENOH=<reason> to skip "
+                "them locally)")
+
+
+def free_port() -> int:
+    """A TCP port on 127.0.0.1 that nothing listens on right now."""
+    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
+
+
 class Daemon:
     """A `cliffd` child process in its own namespace, stopped with SIGTERM."""
 
-    def __init__(self, prefix: str, maps: List[str], log: Path, extra: Optional[List[str]] = None):
+    def __init__(self, prefix: str, maps: List[str], log: Path, extra: Optional[List[str]] = None,
+                 exe: Optional[Path] = None, service: str = SERVICE):
         self.prefix = prefix
         self.maps = maps
         self.log = log
         self.extra = extra or []
+        self.exe = exe
+        self.service = service
         self.proc: Optional[subprocess.Popen] = None
 
     def start(self) -> "Daemon":
-        args = [str(binary("cliffd")), "--service", SERVICE, "--prefix", self.prefix]
+        exe = self.exe or binary("cliffd")
+        args = [str(exe), "--service", self.service, "--prefix", self.prefix]
         for m in self.maps:
             args += ["--map", m]
         args += self.extra
@@ -143,7 +200,7 @@ class Daemon:
 
     def client(self, **kwargs: object) -> cliff_lhmp.Client:
         kwargs.setdefault("deadline", 5.0)
-        return cliff_lhmp.Client(SERVICE, prefix=self.prefix, **kwargs)  # type: ignore[arg-type]
+        return cliff_lhmp.Client(self.service, prefix=self.prefix, **kwargs)  # type: ignore[arg-type]
 
 
 @pytest.fixture(scope="session")

@@ -1,5 +1,6 @@
 """A typed use of the package: `mypy --strict` must accept it (see test_api.py)."""
 
+from pathlib import Path
 from typing import Dict, List
 
 import numpy as np
@@ -40,5 +41,12 @@ def main() -> None:
         print(status, field)
     except (cliff_lhmp.NoDaemon, cliff_lhmp.DaemonGone, cliff_lhmp.DeadlinePassed) as e:
         print(e)
+    if cliff_lhmp.HAS_ZENOH:
+        z = cliff_lhmp.Client.connect_zenoh("tcp/127.0.0.1:7447", "cliff/predict", deadline=0.1)
+        z2 = cliff_lhmp.Client.connect_zenoh(["tcp/10.0.0.2:7447"], config="robot.json5")
+        z3 = cliff_lhmp.Client.connect_zenoh(None, config=Path("robot.json5"))
+        zq: cliff_lhmp.Prediction = z.predict("demo", [walk], k=3, seed=2)
+        transport: str = z2.transport
+        print(zq, transport, z3.service)
     print(scores, best, at_noon)
     print(positions, lengths, first, locs, info, score, report, rows, table, q if False else None)

@@ -12,7 +12,10 @@
 //!   thread, at most a quarter of one core's time, under the map's memory budget with
 //!   eviction; failed builds are remembered;
 //! * a reload runs on its own thread, catches panics, and keeps the old map of any file
-//!   that fails.
+//!   that fails;
+//! * a time-of-day map set (`cliff map build --slice`) is served whole: each request
+//!   runs on the map of the time of day it asks for ([`map_for_time`]); every map of
+//!   the set gets the pinned tables, and the set shares the table budget.
 
 use std::panic::{AssertUnwindSafe, catch_unwind};
 use std::path::PathBuf;
@@ -20,7 +23,7 @@ use std::sync::Arc;
 use std::sync::mpsc::{self, Receiver, SyncSender, TryRecvError, TrySendError};
 use std::time::{Duration, Instant};
 
-use cliff::map::CliffMap;
+use cliff::map::{CliffMap, MapSet};
 use cliff_client::protocol::{self, MAP_NAME_BYTES, MapTime};
 use tracing::{debug, error, info, warn};
 
@@ -31,7 +34,10 @@ pub(crate) struct MapEntry {
     pub name: String,
     pub wire: [u8; MAP_NAME_BYTES],
     pub path: Option<PathBuf>,
+    /// The all-day map (the map itself for a file of one map).
     pub map: Arc<CliffMap>,
+    /// The time-of-day set the map belongs to (a set of one map for a file of one).
+    pub set: MapSet,
     /// Largest radius a request may use (m).
     pub max_radius: f64,
 }
@@ -45,21 +51,31 @@ impl MapEntry {
     }
 }
 
-/// The map a request on `entry` runs on, for the map of the time of day it asks for
-/// (`when`: [`RequestHeader::time_mode`] and [`RequestHeader::time`], validated).
-///
-/// The one place where the daemon picks a request's map. Today every entry holds one
-/// map, used whatever `when` says. Once entries hold a time-of-day map set
-/// (`cliff::map::MapSet`), this is where it picks: `set.at(t)` for [`MapTime::At`]`(t)`,
-/// `set.at(now)` for [`MapTime::Now`] (the daemon's wall clock read here: this runs when
-/// the request is accepted, as it arrives) and `set.all_day()` for [`MapTime::AllDay`];
-/// the radius limit and the neighbour table asked for ([`Registry::want_table`]) then
-/// belong to the map picked.
+/// The map a request on `entry` runs on, for the time of day it asks for (`when`:
+/// [`RequestHeader::time_mode`] and [`RequestHeader::time`], validated): the slice of
+/// the entry's time-of-day set that holds `t` for [`MapTime::At`]`(t)`, the one that
+/// holds the daemon's wall clock (unix time, read as the request is accepted) for
+/// [`MapTime::Now`], and the all-day map for [`MapTime::AllDay`]. A file of one map
+/// gives that map whatever `when` says. The one place where the daemon picks a
+/// request's map; the neighbour table asked for ([`Registry::want_table`]) then belongs
+/// to the map picked.
 ///
 /// [`RequestHeader::time_mode`]: cliff_client::RequestHeader::time_mode
 /// [`RequestHeader::time`]: cliff_client::RequestHeader::time
-pub(crate) fn map_for_time(entry: &MapEntry, _when: MapTime) -> &Arc<CliffMap> {
-    &entry.map
+pub(crate) fn map_for_time(entry: &MapEntry, when: MapTime) -> &Arc<CliffMap> {
+    if !entry.set.is_sliced() {
+        return &entry.map;
+    }
+    match when {
+        MapTime::AllDay => entry.set.all_day(),
+        MapTime::At(t) => entry.set.at(t),
+        MapTime::Now => {
+            let now = std::time::SystemTime::now()
+                .duration_since(std::time::UNIX_EPOCH)
+                .map_or(0.0, |d| d.as_secs_f64());
+            entry.set.at(now)
+        }
+    }
 }
 
 /// How maps are prepared: the radius limit, the table budget and the pinned radii.
@@ -87,20 +103,25 @@ impl TablePolicy {
 
     /// Set the map's table budget and build (pinned) the tables of the expected radii
     /// within its limit; a table that does not fit is logged and left to the grid scan.
-    pub fn prepare(&self, name: &str, map: &CliffMap) {
-        map.set_table_budget(self.budget);
-        let limit = self.max_radius(map);
-        for &r in self.radii.iter().filter(|&&r| r <= limit) {
-            if let Err(e) = map.build_table(r, true) {
-                warn!(map = name, radius = r, "no neighbour table: {e}");
+    pub fn prepare(&self, name: &str, set: &MapSet) {
+        // the maps of a set share the budget
+        let maps: Vec<&Arc<CliffMap>> = set.maps().collect();
+        let budget = self.budget / maps.len().max(1);
+        for map in maps {
+            map.set_table_budget(budget);
+            let limit = self.max_radius(map);
+            for &r in self.radii.iter().filter(|&&r| r <= limit) {
+                if let Err(e) = map.build_table(r, true) {
+                    warn!(map = name, radius = r, "no neighbour table: {e}");
+                }
             }
         }
     }
 }
 
-/// A map file's load, with panics turned into errors.
-fn load_file(name: &str, path: &PathBuf) -> Result<CliffMap, String> {
-    match catch_unwind(|| CliffMap::load(path)) {
+/// A map file's load (one map or a time-of-day set), with panics turned into errors.
+fn load_file(name: &str, path: &PathBuf) -> Result<MapSet, String> {
+    match catch_unwind(|| MapSet::load(path)) {
         Ok(Ok(map)) => Ok(map),
         Ok(Err(e)) => Err(format!("map '{name}': {e}")),
         Err(panic) => Err(format!(
@@ -144,8 +165,8 @@ impl Registry {
                 )));
             }
             let wire = protocol::encode_map_name(&s.name).map_err(StartError::Settings)?;
-            let map = match &s.path {
-                Some(p) => match catch_unwind(|| CliffMap::load(p)) {
+            let set = match &s.path {
+                Some(p) => match catch_unwind(|| MapSet::load(p)) {
                     Ok(r) => r.map_err(|source| StartError::Map {
                         name: s.name.clone(),
                         source,
@@ -159,21 +180,24 @@ impl Registry {
                         )));
                     }
                 },
-                None => CliffMap::demo(),
+                None => MapSet::single(CliffMap::demo()),
             };
-            policy.prepare(&s.name, &map);
+            policy.prepare(&s.name, &set);
+            let map = Arc::clone(set.all_day());
             let max_radius = policy.max_radius(&map);
             let tables = map.table_stats();
             info!(
                 map = %s.name, path = ?s.path, locations = map.locations().len(),
                 max_radius, table_radii = ?tables.radii, table_kib = tables.bytes / 1024,
+                slices = set.slices().len(), clock_offset = set.clock_offset(),
                 "map loaded"
             );
             entries.push(MapEntry {
                 name: s.name.clone(),
                 wire,
                 path: s.path.clone(),
-                map: Arc::new(map),
+                map,
+                set,
                 max_radius,
             });
         }
@@ -198,10 +222,9 @@ impl Registry {
 
     /// Ask the background thread for the table of `radius` (already within the map's
     /// limit) if the map has neither a table nor a failed build for it.
-    pub fn want_table(&mut self, map: usize, radius: f64) {
-        let m = &self.entries[map].map;
-        if !m.table_settled(radius) {
-            self.builder.request(m, radius);
+    pub fn want_table(&mut self, map: &Arc<CliffMap>, radius: f64) {
+        if !map.table_settled(radius) {
+            self.builder.request(map, radius);
         }
     }
 
@@ -217,11 +240,13 @@ impl Registry {
         let mut first_error = None;
         for (i, r) in results {
             match r {
-                Ok(map) => {
+                Ok(set) => {
                     let e = &mut self.entries[i];
+                    let map = Arc::clone(set.all_day());
                     e.max_radius = self.policy.max_radius(&map);
-                    info!(map = %e.name, locations = map.locations().len(), max_radius = e.max_radius, "map reloaded");
-                    e.map = Arc::new(map);
+                    info!(map = %e.name, locations = map.locations().len(), max_radius = e.max_radius, slices = set.slices().len(), "map reloaded");
+                    e.map = map;
+                    e.set = set;
                 }
                 Err(e) => {
                     error!("reload failed, keeping the old map: {e}");
@@ -242,7 +267,7 @@ impl Registry {
     }
 }
 
-type ReloadResult = Vec<(usize, Result<CliffMap, String>)>;
+type ReloadResult = Vec<(usize, Result<MapSet, String>)>;
 
 /// Reloads: one at a time, numbered; a request that arrives while one runs is answered
 /// by the next.

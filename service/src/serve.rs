@@ -771,11 +771,14 @@ fn count_failure(stats: &mut Stats, h: &RequestHeader, sent: Result<(), String>)
 /// The map an accepted request on map entry `entry` runs on
 /// ([`registry::map_for_time`]), its neighbour table asked for.
 fn map_for(registry: &mut Registry, entry: usize, decoded: &Decoded) -> Arc<CliffMap> {
+    let map = Arc::clone(registry::map_for_time(
+        &registry.entries()[entry],
+        decoded.map_time,
+    ));
     if uses_map(decoded) {
-        registry.want_table(entry, decoded.params.radius);
+        registry.want_table(&map, decoded.params.radius);
     }
-    let e = &registry.entries()[entry];
-    Arc::clone(registry::map_for_time(e, decoded.map_time))
+    map
 }
 
 /// Whether a request looks up the map at its radius: every method but constant
@@ -793,8 +796,9 @@ fn decode(
     rows: &[Observation],
     scratch: &mut protocol::DecodeScratch,
 ) -> Result<(usize, Decoded), Rejection> {
-    // the version is checked before anything else is read
-    if h.version != PROTOCOL_VERSION {
+    // the version and the kind are checked before anything else is read (a reload
+    // request, which names no map, that reaches this point over zenoh is `unknown-kind`)
+    if h.version != PROTOCOL_VERSION || h.kind != protocol::KIND_PREDICT {
         return protocol::decode_request(h, rows, limits, scratch).map(|d| (0, d));
     }
     let Some(map) = registry.find(&h.map) else {

@@ -297,3 +297,96 @@ fn a_daemon_refuses_to_start_beside_a_daemon_of_version_1() {
         "{err}"
     );
 }
+
+/// A 1 m grid over x, y in [-10, 10] whose locations all hold the flows `thetas`.
+fn flow_map(thetas: &[f64]) -> CliffMap {
+    use cliff::glam::DVec2;
+    use cliff::map::{Component, Location};
+    let mut locs = vec![];
+    for ix in -10..=10 {
+        for iy in -10..=10 {
+            locs.push(Location {
+                position: DVec2::new(ix as f64, iy as f64),
+                components: thetas
+                    .iter()
+                    .map(|&theta| Component {
+                        theta,
+                        rho: 1.0,
+                        cov: [0.02, 0.0, 0.0, 0.01],
+                        weight: 1.0 / thetas.len() as f64,
+                    })
+                    .collect(),
+                motion_ratio: 1.0,
+                observation_ratio: 1.0,
+            });
+        }
+    }
+    CliffMap::new(locs).unwrap()
+}
+
+#[test]
+fn a_time_of_day_set_is_served_by_the_slice_of_the_time_asked_for() {
+    use cliff::map::{MapSet, SetParts};
+    use std::f64::consts::FRAC_PI_2;
+    use std::sync::Arc;
+    // north-going people before noon, south-going after; the all-day map has both
+    let (north, south, both) = (
+        flow_map(&[FRAC_PI_2]),
+        flow_map(&[3.0 * FRAC_PI_2]),
+        flow_map(&[FRAC_PI_2, 3.0 * FRAC_PI_2]),
+    );
+    let slices = (0..24)
+        .map(|h| match h {
+            0..12 => Some(Arc::new(north.clone())),
+            _ => Some(Arc::new(south.clone())),
+        })
+        .collect();
+    let set = MapSet::from_parts(SetParts {
+        all_day: Arc::new(both.clone()),
+        slices,
+        slice_length: 3600.0,
+        clock_offset: 3600.0, // local time is UTC+1
+        smoothing: None,
+        observations: vec![],
+    })
+    .unwrap();
+    let dir = std::env::temp_dir().join(format!("cliffd-tod-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("set.cliff");
+    set.save(&path).unwrap();
+    let ns = Namespace::new("v2tod");
+    let arg = format!("hall={}", path.display());
+    let _daemon = Daemon::start(&ns, &["--map", &arg]);
+    let mut client = ns.connect(WaitMode::Hybrid);
+    let params = Params {
+        k: 20,
+        dt: 1.0,
+        horizon: 5.0,
+        radius: 1.0,
+        ..Params::default()
+    };
+    // a walker heading east at the centre: the slice's flow decides where it turns
+    let mut req = Request::new("hall", &params).unwrap();
+    req.add_agent((0..4).map(|i| Observation::position(i as f64, -3.0 + i as f64, 0.0)));
+    let day = 86_400.0 * 15_000.0; // a midnight, UTC
+    for (when, map, turns) in [
+        (MapTime::At(day + 9.0 * 3600.0), &north, 1.0), // 10:00 local
+        (MapTime::At(day + 14.0 * 3600.0), &south, -1.0), // 15:00 local
+        (MapTime::AllDay, &both, 0.0),
+    ] {
+        req.set_map_time(when);
+        let p = client.predict(&req).unwrap();
+        assert_eq!(scored(&p), local_scored(map, &req), "{when:?}");
+        // the mean last y says which way the samples turned
+        let ys: Vec<f64> = (0..20)
+            .map(|s| p.agent(0).sample(s).last().unwrap()[1] as f64)
+            .collect();
+        let mean = ys.iter().sum::<f64>() / 20.0;
+        if turns != 0.0 {
+            assert!(mean * turns > 1.0, "{when:?}: mean y {mean}");
+        } else {
+            assert!(ys.iter().any(|y| *y > 0.5) && ys.iter().any(|y| *y < -0.5));
+        }
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -253,6 +253,15 @@ fn every_kind_of_bad_request_gets_its_status_and_the_daemon_keeps_serving() {
             None,
         ),
         (
+            "unknown kind and unknown map (the kind is checked first)",
+            Box::new(|h, _| {
+                h.kind = 42;
+                h.set_map_name("nowhere").unwrap();
+            }),
+            Status::UnknownKind,
+            None,
+        ),
+        (
             "NaN dt",
             Box::new(|h, _| h.dt = f64::NAN),
             Status::NonFinite,

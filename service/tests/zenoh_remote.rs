@@ -280,6 +280,13 @@ fn every_bad_request_gets_its_status_over_zenoh() {
         let r = rejected(&mut c, &h, rows);
         assert_eq!((r.status, r.field), (status, field), "{r}");
     }
+    // the client's own reload request (it names no map) is refused for its kind
+    match c.reload_maps(Duration::from_secs(5)) {
+        Err(Error::Rejected(r)) => {
+            assert_eq!((r.status, r.field), (Status::UnknownKind, Field::None))
+        }
+        other => panic!("reload over zenoh: {other:?}"),
+    }
     // too many agents for --max-agents 4
     let r = rejected(
         &mut c,

@@ -22,6 +22,7 @@
 pub mod build;
 mod csv;
 mod demo;
+mod density;
 mod grid;
 mod neighbours;
 pub mod score;
@@ -315,7 +316,7 @@ pub struct CliffMap {
     density_start: Vec<u32>,
     density: Vec<Gauss2>,
     /// The same components for [`CliffMap::step_log_density`].
-    step_density: Vec<StepDensity>,
+    step_density: density::StepDensities,
     report: MapReport,
     /// How speeds ahead regress to a typical speed, learned with the map (see
     /// [`SpeedPrior`](crate::motion::SpeedPrior)); `None` for maps without one.
@@ -540,20 +541,7 @@ impl CliffMap {
             weight: 0.0,
             ..last
         });
-        let step_density = density
-            .iter()
-            .map(|g| StepDensity {
-                cos_mu: g.mu[0].cos() as f32,
-                sin_mu: g.mu[0].sin() as f32,
-                rho: g.mu[1],
-                inv: g.inv,
-                log_norm: g.log_norm,
-                // the heading's variance given the speed is 1 / inv_tt, its mean moves by
-                // -inv_tr / inv_tt per m/s of speed offset
-                wide: 1.0 / g.inv[0] > NARROW_SD * NARROW_SD,
-                slope: -g.inv[1] / g.inv[0],
-            })
-            .collect();
+        let step_density = density::StepDensities::new(&density_start, &density);
         let (comp_start, table) = pad_components(comp_start, table);
         Ok(Self {
             locations,
@@ -877,73 +865,28 @@ impl CliffMap {
 }
 
 impl CliffMap {
-    /// [`log_density`](Self::log_density) for the prediction loop: the heading given as
-    /// a unit vector `(ux, uy)` (its angle in single precision) and short polynomial
-    /// kernels. It sums the windings -1, 0, 1 (only the two likeliest for components
-    /// narrower than 0.8 rad given the speed) around the nearest offset of the heading
-    /// from each mean, [`log_density`](Self::log_density) around `theta - mu` in
-    /// `(-2pi, 2pi)`: the two agree (within 1e-2) for components narrower than about
-    /// 1 rad away from the far tails, and differ for the widest.
+    /// [`log_density`](Self::log_density) approximated for the prediction loop's sample
+    /// scores: the log-density of the likeliest component at the winding nearest the
+    /// heading, in single precision, the heading given as a unit vector `(ux, uy)`. At
+    /// most [`log_density`](Self::log_density) (within 1e-3 relative) and at most
+    /// `ln(3 x components)` below it, equal where one component explains the step, except for
+    /// strongly correlated components far in the speed tail, where this is the closer
+    /// to the mixture's density (see `src/map/density.rs`). `-inf` for a location without
+    /// components.
     #[inline]
     pub fn step_log_density(&self, index: usize, ux: f32, uy: f32, rho: f64) -> f64 {
-        use crate::predict::fastmath::{acos_f32, exp_neg, ln_ge1};
-        let a = self.density_start[index] as usize;
-        let b = self.density_start[index + 1] as usize;
-        let mut m = f64::NEG_INFINITY;
-        let mut sum = 0.0;
-        for c in &self.step_density[a..b] {
-            let dot = ux * c.cos_mu + uy * c.sin_mu;
-            let cross = uy * c.cos_mu - ux * c.sin_mu;
-            let d0 = acos_f32(dot).copysign(cross) as f64;
-            let dr = rho - c.rho;
-            let mut add = |d: f64| {
-                let q = c.inv[0] * d * d + 2.0 * c.inv[1] * d * dr + c.inv[2] * dr * dr;
-                let v = c.log_norm - 0.5 * q;
-                if v > m {
-                    sum = sum * exp_neg(m - v) + 1.0;
-                    m = v;
-                } else {
-                    sum += exp_neg(v - m);
-                }
-            };
-            if c.wide {
-                add(d0 - TAU);
-                add(d0);
-                add(d0 + TAU);
-            } else {
-                // the two windings on either side of the heading's mean given the speed
-                let n = ((c.slope * dr - d0) / TAU).floor();
-                add(d0 + TAU * n);
-                add(d0 + TAU * (n + 1.0));
-            }
-        }
-        if m == f64::NEG_INFINITY {
-            m
-        } else {
-            m + ln_ge1(sum)
-        }
+        let theta = crate::predict::fastmath::atan2_f32(uy, ux);
+        self.step_log_density_at(index, theta, rho as f32) as f64
+    }
+
+    /// [`step_log_density`](Self::step_log_density) at the heading `theta` (rad), for
+    /// the prediction loop (which takes the headings' angles four samples at a time).
+    #[inline(always)]
+    pub(crate) fn step_log_density_at(&self, index: usize, theta: f32, rho: f32) -> f32 {
+        let v = self.step_density.log_density(index, theta, rho);
+        if v <= -1e29 { f32::NEG_INFINITY } else { v }
     }
 }
-
-/// One component for [`CliffMap::step_log_density`].
-#[derive(Debug, Clone, Copy)]
-struct StepDensity {
-    cos_mu: f32,
-    sin_mu: f32,
-    rho: f64,
-    inv: [f64; 3],
-    log_norm: f64,
-    /// Heading deviation given the speed above [`NARROW_SD`]: three windings count.
-    wide: bool,
-    /// Change of the heading's mean given the speed, per m/s of speed offset.
-    slope: f64,
-}
-
-/// A component whose heading deviates less than this (rad) given the speed gets only
-/// two windings in [`CliffMap::step_log_density`], the ones on either side of the
-/// heading's mean given the speed: any other is at least 2 pi from that mean, a share
-/// below `exp(-(2 pi)^2 / (2 * 0.8^2))`, 4e-14, of the density.
-const NARROW_SD: f64 = 0.8;
 
 /// Covariance eigenvalue floor of [`CliffMap::log_density`] (as in `cliff map score`).
 const SCORE_EIGENVALUE_FLOOR: f64 = 1e-4;

@@ -82,18 +82,31 @@ pub fn exp_neg(x: f64) -> f64 {
     if x < -708.0 { 0.0 } else { y }
 }
 
-/// `ln x` for finite `x >= 1` (sample scores: the log of a mixture's sum relative to
-/// its largest term), within 1e-6 absolute: `ln m + e ln 2` from the bits, with
-/// `ln m = 2 atanh((m - 1) / (m + 1))` to the ninth power.
+/// `atan2(y, x)` in single precision, in `[-pi, pi]`, within 1e-6 rad (0 for the
+/// origin). Branch-free: octant reduction to `[0, 1]` and an odd polynomial of degree 13
+/// (least squares on Chebyshev nodes).
 #[inline(always)]
-pub fn ln_ge1(x: f64) -> f64 {
-    let bits = x.to_bits();
-    let e = ((bits >> 52) & 0x7ff) as i64 - 1023;
-    let m = f64::from_bits((bits & ((1u64 << 52) - 1)) | (1023u64 << 52));
-    let s = (m - 1.0) / (m + 1.0);
+pub fn atan2_f32(y: f32, x: f32) -> f32 {
+    use std::f32::consts::{FRAC_PI_2, PI};
+    let (ax, ay) = (x.abs(), y.abs());
+    // (comparisons rather than f32::min / max, whose NaN rules cost instructions)
+    let lo = if ax < ay { ax } else { ay };
+    let hi = if ax < ay { ay } else { ax };
+    let hi = if hi > f32::MIN_POSITIVE {
+        hi
+    } else {
+        f32::MIN_POSITIVE
+    };
+    let a = lo / hi;
+    let s = a * a;
     let s2 = s * s;
-    let p = 1.0 + s2 * (1.0 / 3.0 + s2 * (1.0 / 5.0 + s2 * (1.0 / 7.0 + s2 * (1.0 / 9.0))));
-    2.0 * s * p + e as f64 * std::f64::consts::LN_2
+    let s4 = s2 * s2;
+    let p = ((0.999_996_6 + s * -0.333_183_03) + s2 * (0.198_132_16 + s * -0.132_475_32))
+        + s4 * ((0.079_811_36 + s * -0.033_726_055) + s2 * 0.006_842_661);
+    let r = a * p;
+    let r = if ay > ax { FRAC_PI_2 - r } else { r };
+    let r = if x < 0.0 { PI - r } else { r };
+    r.copysign(y)
 }
 
 /// `(sin x, cos x)` in single precision for `|x| < 1e4`, within 2e-7. Branch-free.
@@ -208,5 +221,16 @@ mod tests {
         assert!(wa < 5e-7, "acos {wa}");
         assert!(we < 5e-7, "exp {we}");
         assert_eq!(exp_neg_f32(-100.0), 0.0);
+        let mut wt = 0.0f64;
+        for i in 0..=100_000 {
+            let t = -PI + i as f64 * 2.0 * PI / 100_000.0;
+            for r in [1.0, 1e-3, 7.0] {
+                let (y, x) = ((t.sin() * r) as f32, (t.cos() * r) as f32);
+                let d = atan2_f32(y, x) as f64 - (y as f64).atan2(x as f64);
+                wt = wt.max(d.abs());
+            }
+        }
+        assert!(wt < 1e-6, "atan2 {wt}");
+        assert_eq!(atan2_f32(0.0, 0.0), 0.0);
     }
 }

@@ -25,6 +25,7 @@
 //! ```
 
 mod batch;
+pub(crate) mod f32x4;
 pub(crate) mod fastmath;
 mod options;
 pub mod preset;

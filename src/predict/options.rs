@@ -6,8 +6,8 @@
 //!   with the direction (from the chosen component's bivariate normal, the speed given
 //!   the drawn direction) and the current speed `v` moves towards the drawn speed `r` as
 //!   the heading does towards the drawn direction:
-//!   `v <- v + lambda * (r - v)`, `lambda = exp(-speed_beta * (r - v)^2)` (m/s). The
-//!   paper keeps the observed speed.
+//!   `v <- v + lambda * (r - v)`, `lambda = exp(-speed_beta * (r - v)^2)` (m/s; `lambda`
+//!   in single precision). The paper keeps the observed speed.
 //! * **Coasting** ([`Options::coast`] > 0 seconds): a sample that reaches a position with
 //!   no map location near does not stop there (the paper's rule) but goes on at constant
 //!   velocity for up to `floor(coast / dt)` positions; back near a location it samples
@@ -15,7 +15,11 @@
 //! * **Scores** ([`Options::scores`]): every sample gets the log-likelihood of its
 //!   rollout under the map, summed over the `steps` of the horizon. A step taken from a
 //!   map location adds the log-density of the step's velocity (the heading and speed after
-//!   the update) under that location's mixture ([`CliffMap::log_density`]); any other
+//!   the update) under that location's mixture, approximated by its likeliest component
+//!   ([`CliffMap::step_log_density`]: at most `ln(3 x components)` below
+//!   [`CliffMap::log_density`], equal where one component explains the step; on real
+//!   predictions the median step is within 0.04 of it and the scores order 99 % of the
+//!   pairs of samples alike); any other
 //!   step (coasting, after the sample ended, or every step of constant velocity far from
 //!   the map) adds [`NO_LOCATION_LOG_DENSITY`], the log-density of a uniform velocity
 //!   over all headings and speeds of 0 to 2 m/s. Scores compare samples of the same
@@ -431,32 +435,171 @@ mod tests {
     #[test]
     fn the_loops_density_agrees_with_the_maps() {
         use rand::RngExt;
-        let path = concat!(
-            env!("CARGO_MANIFEST_DIR"),
-            "/../shared/data/atc/cliffmap-20121024.csv"
-        );
-        let map = CliffMap::load(path).unwrap();
-        let mut rng = Xoshiro256PlusPlus::seed_from_u64(5);
-        let mut worst: f64 = 0.0;
-        for _ in 0..20_000 {
-            let i = rng.random_range(0..map.locations().len());
-            let theta: f64 = rng.random_range(0.0..std::f64::consts::TAU);
-            let rho: f64 = rng.random_range(0.0..2.5);
-            let exact = map.log_density(i, theta, rho);
-            let (s, c) = theta.sin_cos();
-            let fast = map.step_log_density(i, c as f32, s as f32, rho);
-            // Both sum the windings -1, 0, 1, around different centres (the map's
-            // around theta - mu in (-2pi, 2pi), the loop's around the nearest offset):
-            // the same for components narrower than about 1 rad, not for the widest.
-            let narrow = map.locations()[i].components.iter().all(|c| c.cov[0] < 1.0);
-            // (and far in the tails, at a speed many deviations off, a correlated
-            // component's farther winding can dominate either sum)
-            if exact > -30.0 && narrow {
-                // the loop rounds the heading to f32 and uses polynomial exp and ln
-                worst = worst.max((exact - fast).abs());
+        let data = concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/data/");
+        for path in ["thor1/cliffmap.csv", "atc/cliffmap-20121024.csv"] {
+            let map = CliffMap::load(format!("{data}{path}")).unwrap();
+            let mut rng = Xoshiro256PlusPlus::seed_from_u64(5);
+            let (mut above, mut below, mut single, mut checked) = (0.0f64, 0.0f64, 0.0f64, 0);
+            for _ in 0..50_000 {
+                let i = rng.random_range(0..map.locations().len());
+                let theta: f64 = rng.random_range(0.0..std::f64::consts::TAU);
+                let rho: f64 = rng.random_range(0.0..2.5);
+                let comps = &map.locations()[i].components;
+                // where a component's heading mean given the speed moves by more than
+                // half a radian, the map's windings (around theta - mu) and the loop's
+                // (around that mean) are not the same three
+                if comps
+                    .iter()
+                    .any(|c| (c.cov[1] / c.cov[3].max(1e-4) * (rho - c.rho)).abs() > 0.5)
+                {
+                    continue;
+                }
+                let exact = map.log_density(i, theta, rho);
+                let (s, c) = theta.sin_cos();
+                let fast = map.step_log_density(i, c as f32, s as f32, rho);
+                let tol = 1e-3 * exact.abs().max(1.0);
+                checked += 1;
+                // the likeliest component at one winding: never above the mixture, and
+                // below it by at most ln(3 x components)
+                above = above.max(fast - exact - tol);
+                below = below.max(exact - fast - tol - (3.0 * comps.len() as f64).ln());
+                // a single component narrower than 0.5 rad, the heading within 2 rad of
+                // its mean given the speed: the same
+                if let [c] = &comps[..] {
+                    let off = (theta - c.theta - c.cov[1] / c.cov[3].max(1e-4) * (rho - c.rho))
+                        .rem_euclid(std::f64::consts::TAU);
+                    if c.cov[0] < 0.25 && off.min(std::f64::consts::TAU - off) < 2.0 {
+                        single = single.max((exact - fast).abs() - tol);
+                    }
+                }
+            }
+            assert!(checked > 10_000, "{path}: {checked}");
+            assert!(above <= 0.0, "{path}: above the mixture by {above}");
+            assert!(below <= 0.0, "{path}: below the bound by {below}");
+            assert!(single <= 0.0, "{path}: one component off by {single}");
+        }
+    }
+
+    /// Each step's exact log-density ([`CliffMap::log_density`] at the location the
+    /// step was drawn at, the heading and speed the step moved with), summed as the
+    /// loop sums its approximation.
+    fn exact_score(
+        map: &CliffMap,
+        radius: f64,
+        start: &State,
+        dt: f64,
+        steps: usize,
+        sample: &[[f32; 2]],
+    ) -> f64 {
+        let lookup = map.lookup(radius);
+        let mut prev = start.position;
+        let mut score = (steps - sample.len()) as f64 * NO_LOCATION_LOG_DENSITY;
+        for q in sample {
+            let p = DVec2::new(q[0] as f64, q[1] as f64);
+            let step = p - prev;
+            let loc = lookup
+                .best_near(prev)
+                .expect("a step is drawn at a location");
+            score += map.log_density(loc, step.y.atan2(step.x), step.length() / dt);
+            prev = p;
+        }
+        score
+    }
+
+    #[test]
+    fn scores_rank_real_predictions_as_the_maps_density_does() {
+        use crate::eval::dataset::{Format, read_tracks};
+        use crate::eval::protocol::{Protocol, Settings, prepare};
+        let data = concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/data/");
+        let atc = Settings {
+            protocol: Protocol::Seconds,
+            dt: 1.0,
+            horizon: 50.0,
+            ..Settings::default()
+        };
+        let atc_params = Params {
+            dt: 1.0,
+            horizon: 50.0,
+            radius: 1.0,
+            ..Params::default()
+        };
+        for (map, tracks, format, settings, params) in [
+            (
+                "thor1/cliffmap.csv",
+                "thor1/exp-1-run-2.csv",
+                Format::Thor,
+                Settings::default(),
+                Params::default(),
+            ),
+            (
+                "atc/cliffmap-20121024.csv",
+                "atc/dev/atc-1024-13_test.csv",
+                Format::Atc,
+                atc,
+                atc_params,
+            ),
+        ] {
+            let map = CliffMap::load(format!("{data}{map}")).unwrap();
+            let tracks =
+                read_tracks(std::path::Path::new(&format!("{data}{tracks}")), format).unwrap();
+            let people: Vec<State> = tracks
+                .iter()
+                .filter_map(|t| prepare(t, &settings))
+                .map(|c| c.start)
+                .take(60)
+                .collect();
+            for speed_beta in [0.0, 1.0] {
+                let opts = Options {
+                    speed_beta,
+                    scores: true,
+                    ..Options::default()
+                };
+                let mut b = TrajectoryBatch::new();
+                let p = Params { seed: 3, ..params };
+                predict_with(&map, &people, &p, &opts, &mut b).unwrap();
+                let steps = p.steps();
+                let (mut same_best, mut regret) = (0, 0.0f64);
+                let (mut pairs, mut concordant) = (0usize, 0usize);
+                let mut gaps = Vec::new();
+                for (a, start) in people.iter().enumerate() {
+                    let exact: Vec<f64> = (0..p.k)
+                        .map(|s| exact_score(&map, p.radius, start, p.dt, steps, b.sample(a, s)))
+                        .collect();
+                    for (s, e) in exact.iter().enumerate() {
+                        let d = e - b.score(a, s).unwrap() as f64;
+                        gaps.push(d / b.len(a, s).max(1) as f64);
+                    }
+                    for x in 0..p.k {
+                        for y in 0..x {
+                            let ex = exact[x] - exact[y];
+                            let ey = (b.score(a, x).unwrap() - b.score(a, y).unwrap()) as f64;
+                            pairs += 1;
+                            concordant +=
+                                (ex * ey > 0.0 || (ex.abs() < 1e-3 && ey.abs() < 1e-3)) as usize;
+                        }
+                    }
+                    let best = (0..p.k)
+                        .max_by(|&x, &y| exact[x].total_cmp(&exact[y]))
+                        .unwrap();
+                    let chosen = b.best_sample(a).unwrap();
+                    same_best += (best == chosen) as usize;
+                    regret = regret.max(exact[best] - exact[chosen]);
+                }
+                let what = format!("{} people, speed_beta {speed_beta}", people.len());
+                gaps.sort_by(f64::total_cmp);
+                let q = |p: f64| gaps[(p * (gaps.len() - 1) as f64) as usize];
+                let concordance = concordant as f64 / pairs as f64;
+                // per step, the loop's value is the map's or a little below it (the
+                // likeliest component instead of the sum: at most ln 2 with two
+                // components explaining a step equally) ...
+                assert!(q(0.01) > -1e-3, "{what}: {gaps:?}");
+                assert!(q(0.5) < 0.05 && q(0.95) < 0.2, "{what}: {gaps:?}");
+                // ... and the scores order the samples as the map's density does
+                assert!(concordance > 0.98, "{what}: {concordance}");
+                assert!(same_best * 10 >= people.len() * 9, "{what}: {same_best}");
+                assert!(regret < 1.5, "{what}: {regret}");
             }
         }
-        assert!(worst < 1e-2, "{worst}");
     }
 
     #[test]

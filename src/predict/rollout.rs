@@ -51,7 +51,7 @@ pub enum Tables {
 ///     .map(|i| State { position: DVec2::new(-10.0, 0.5 * i as f64), speed: 1.2, heading: 0.0, time: 0.0 })
 ///     .collect();
 /// let params = Params { k: 5, horizon: 4.0, seed: 7, ..Params::default() };
-/// let options = Options { speed_beta: 1.0, coast: 2.0, scores: true };
+/// let options = Options { speed_beta: 1.0, coast: 2.0, scores: true, follow: 2.0, candidates: 3, ..Options::default() };
 /// let mut whole = TrajectoryBatch::new();
 /// predict_with(&map, &agents, &params, &options, &mut whole).unwrap();
 ///
@@ -527,6 +527,7 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
         let with_speed = MOTION && extras.speed_beta > 0.0;
         let with_follow = MOTION && extras.follow > 0.0;
         let coast_steps = if MOTION { extras.coast_steps } else { 0 };
+        let coasting = coast_steps > 0;
         let theta0 = wrap_2pi(state.heading);
         let (s0, c0) = fastmath::sin_cos(theta0);
         let start = near(state.position);
@@ -549,8 +550,13 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
         }
         let mut ts = [0.0f64; N];
         let mut rs = [0.0f64; N];
-        let mut step_score = [0.0f64; N];
-        let mut score = [0.0f64; N];
+        // (single precision: a score sums at most a few hundred steps of the horizon's
+        // worth, each kept to 1e-7 relative)
+        let mut heading = [0.0f32; N];
+        // a coasting lane's heading, kept through the turn
+        let (mut old_ux, mut old_uy, mut old_theta) = ([0.0f32; N], [0.0f32; N], [0.0f64; N]);
+        let mut step_score = [0.0f32; N];
+        let mut score = [0.0f32; N];
         lens.fill(0);
         for j in 0..steps {
             // Phase 1: draw at each sampling lane's location (in lane order).
@@ -569,7 +575,9 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
                 }
             }
             // Phase 2: turn every lane (straight-line arithmetic, lanes interleaved).
-            let (old_ux, old_uy, old_theta) = (ux, uy, theta);
+            if coasting {
+                (old_ux, old_uy, old_theta) = (ux, uy, theta);
+            }
             match params.heading {
                 HeadingRule::CircularMean => {
                     // Single precision: a heading error of 1e-7 rad per step is far below
@@ -602,24 +610,45 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
                 }
             }
             // The options: a coasting lane keeps its heading and speed; the speed moves
-            // towards the drawn one; the step's log-density.
-            if MOTION || SCORES {
+            // towards the drawn one.
+            if MOTION {
+                if with_speed {
+                    // branch-free over the lanes (single-precision kernel weight)
+                    let beta = extras.speed_beta as f32;
+                    let d: [f32; N] = std::array::from_fn(|l| (rs[l] - speed[l]) as f32);
+                    let lambda: [f32; N] =
+                        std::array::from_fn(|l| fastmath::exp_neg_f32(-beta * d[l] * d[l]));
+                    for l in 0..N {
+                        let moved = speed[l] + (lambda[l] * d[l]) as f64;
+                        // (without coasting every live lane drew; the others are dead)
+                        speed[l] = if drawing[l] || !coasting {
+                            moved
+                        } else {
+                            speed[l]
+                        };
+                    }
+                }
+                if coasting {
+                    for l in 0..N {
+                        if !drawing[l] {
+                            ux[l] = old_ux[l];
+                            uy[l] = old_uy[l];
+                            theta[l] = old_theta[l];
+                        }
+                    }
+                }
+            }
+            // The step's log-density (the headings' angles four lanes at a time).
+            if SCORES {
                 for l in 0..N {
-                    if MOTION && !drawing[l] {
-                        ux[l] = old_ux[l];
-                        uy[l] = old_uy[l];
-                        theta[l] = old_theta[l];
-                        step_score[l] = NO_LOCATION_LOG_DENSITY;
-                        continue;
-                    }
-                    if with_speed {
-                        let d = rs[l] - speed[l];
-                        let lambda = (-extras.speed_beta * d * d).exp();
-                        speed[l] += lambda * d;
-                    }
-                    if SCORES && drawing[l] {
-                        step_score[l] = map.step_log_density(loc[l], ux[l], uy[l], speed[l]);
-                    }
+                    heading[l] = fastmath::atan2_f32(uy[l], ux[l]);
+                }
+                for l in 0..N {
+                    step_score[l] = if drawing[l] {
+                        map.step_log_density_at(loc[l], heading[l], speed[l] as f32)
+                    } else {
+                        NO_LOCATION_LOG_DENSITY as f32
+                    };
                 }
             }
             for l in 0..N {
@@ -664,8 +693,9 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
         for (l, &len) in lens.iter().enumerate() {
             tracks[l * steps + len as usize..(l + 1) * steps].fill([f32::NAN; 2]);
             if SCORES {
-                scores[l] =
-                    (score[l] + (steps - len as usize) as f64 * NO_LOCATION_LOG_DENSITY) as f32;
+                scores[l] = (score[l] as f64
+                    + (steps - len as usize) as f64 * NO_LOCATION_LOG_DENSITY)
+                    as f32;
             }
         }
     }

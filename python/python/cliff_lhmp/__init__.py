@@ -7,7 +7,9 @@ A native (Rust) package with NumPy arrays in and out:
   ``OnlineMap`` to learn maps from trajectories.
 * ``predict(map, histories, ...)``: k sampled futures per person, in-process, as a
   ``Prediction`` (``positions`` (people, k, steps, 2), ``lengths`` (people, k)).
-* ``Client``: the same predictions from a running ``cliffd`` daemon; exceptions
+* ``Client``: the same predictions from a running ``cliffd`` daemon, on this host
+  (``Client()``, shared memory) or another (``Client.connect_zenoh(endpoint)``, in a
+  package built with the cargo feature ``zenoh``: see ``HAS_ZENOH``); exceptions
   ``Rejected``, ``NoDaemon``, ``DaemonGone``, ``DeadlinePassed``.
 * ``evaluate``: ``cliff eval`` from Python, tables as lists of dicts.
 
@@ -24,6 +26,7 @@ from importlib.metadata import PackageNotFoundError, version
 
 from ._errors import DaemonGone, DeadlinePassed, NoDaemon, Rejected
 from ._native import (
+    HAS_ZENOH,
     Client,
     Evaluation,
     Map,
@@ -44,6 +47,7 @@ __all__ = [
     "DaemonGone",
     "DeadlinePassed",
     "Evaluation",
+    "HAS_ZENOH",
     "Map",
     "NoDaemon",
     "OnlineMap",

@@ -12,6 +12,7 @@ from ._errors import NoDaemon as NoDaemon
 from ._errors import Rejected as Rejected
 
 __version__: str
+HAS_ZENOH: bool
 
 _Path = Union[str, "os.PathLike[str]"]
 _Tracks = Union[_Path, Sequence[_Path]]
@@ -118,7 +119,7 @@ class Evaluation:
 
 @final
 class Client:
-    """A connection to the cliffd daemon."""
+    """A connection to the cliffd daemon (shared memory on this host, or zenoh)."""
 
     def __init__(
         self,
@@ -127,6 +128,14 @@ class Client:
         wait: str = "hybrid",
         deadline: float = 0.05,
     ) -> None: ...
+    @staticmethod
+    def connect_zenoh(
+        endpoint: Union[str, Sequence[str], None],
+        service: str = "cliff/predict",
+        *,
+        config: Optional[_Path] = None,
+        deadline: float = 0.05,
+    ) -> Client: ...
     def predict(
         self,
         map: str,
@@ -148,6 +157,8 @@ class Client:
     def reload_maps(self) -> None: ...
     @property
     def service(self) -> str: ...
+    @property
+    def transport(self) -> str: ...
 
 def predict(
     map: Map,
