@@ -28,9 +28,10 @@
 //! in-process reference ([`LocalPredictor`]), which is why the two give the same bytes.
 
 use std::fmt;
+use std::sync::Arc;
 
 use cliff::glam::DVec2;
-use cliff::map::CliffMap;
+use cliff::map::{CliffMap, MapSet};
 use cliff::motion::{DEFAULT_SIGMA, State, velocity_from_positions, velocity_from_speed_angle};
 use cliff::predict::preset::cost_factor;
 use cliff::predict::{HeadingRule, Method, Options, Params, TrajectoryBatch, predict_with};
@@ -257,8 +258,8 @@ pub fn scores_in_response(params: &Params, options: &Options) -> bool {
 }
 
 /// Which map of the time of day a request asks for ([`RequestHeader::time_mode`] and
-/// [`RequestHeader::time`]). Daemons serve one map per name today; this picks among
-/// the maps of a time-of-day map set once they serve sets.
+/// [`RequestHeader::time`]); [`map_in`](Self::map_in) picks it from a time-of-day map
+/// set, as the daemon does for a map served as a set.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub enum MapTime {
     /// The map for the daemon's wall clock when the request arrives.
@@ -271,6 +272,24 @@ pub enum MapTime {
 }
 
 impl MapTime {
+    /// The map of `set` this asks for: the slice that holds `t` for [`MapTime::At`]`(t)`,
+    /// the slice that holds the wall clock (unix time, read now) for [`MapTime::Now`],
+    /// the all-day map for [`MapTime::AllDay`] (a time without a slice map, or a set
+    /// without slices: the all-day map). The one rule for the daemon and in-process
+    /// callers.
+    pub fn map_in(self, set: &MapSet) -> &Arc<CliffMap> {
+        match self {
+            MapTime::AllDay => set.all_day(),
+            MapTime::At(t) => set.at(t),
+            MapTime::Now => {
+                let now = std::time::SystemTime::now()
+                    .duration_since(std::time::UNIX_EPOCH)
+                    .map_or(0.0, |d| d.as_secs_f64());
+                set.at(now)
+            }
+        }
+    }
+
     /// The wire form: `(time_mode, time)`.
     pub fn to_wire(self) -> (u32, f64) {
         match self {
@@ -1135,9 +1154,9 @@ impl LocalPredictor {
 
     /// Decode and predict with the request's options
     /// ([`cliff::predict::predict_with`]); the result stays in [`batch`](Self::batch),
-    /// with [`TrajectoryBatch::scores`] when the request asked for them. The request's
-    /// [`MapTime`] is validated; `map` is used whatever it says (a daemon serves one map
-    /// per name today, see [`MapTime`]).
+    /// with [`TrajectoryBatch::scores`] when the response would carry them. The
+    /// request's [`MapTime`] is validated and `map` used whatever it says: for a
+    /// time-of-day set, pass the map the daemon would pick ([`MapTime::map_in`]).
     pub fn predict(
         &mut self,
         map: &CliffMap,

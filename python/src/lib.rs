@@ -42,11 +42,10 @@ use map::Map;
 ///     coast: seconds (at most ``horizon``) a sample goes on at constant velocity where
 ///         the map has no data; 0 stops it there (the paper).
 ///     scores: also return a score per sample (``Prediction.scores``).
-///     time: which map of the time of day: None (the wall clock now), seconds on the
-///         map's clock (unix time, as the tracks had it) or "all-day". Checked, and
-///         the map given is used whatever the time (as ``cliffd`` does today; a
-///         time-of-day set predicts with its all-day map: pick a slice with
-///         ``map.slice_at(time)``).
+///     time: for a time-of-day set (``Map.load`` of a set file), which of its maps:
+///         None (the slice of the wall clock now, as ``cliffd`` does), seconds on the
+///         map's clock (unix time, as the tracks had it: the slice of that time) or
+///         "all-day". A map without slices is used whatever the time (it is checked).
 ///
 /// Returns:
 ///     Prediction with ``positions`` (float32, shape (people, k, steps, 2), NaN after
@@ -98,7 +97,7 @@ fn predict(
         scores,
         time: histories::time_arg(time)?,
     };
-    prediction::predict_local(py, map.get().inner.clone(), histories, &args)
+    prediction::predict_local(py, map.get(), histories, &args)
 }
 
 /// The extension module; `cliff_lhmp` re-exports its contents.

@@ -371,7 +371,7 @@ impl Map {
             scores,
             time: time_arg(time)?,
         };
-        predict_local(py, self.inner.clone(), histories, &args)
+        predict_local(py, self, histories, &args)
     }
 
     fn __repr__(&self) -> String {

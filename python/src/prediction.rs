@@ -179,13 +179,19 @@ impl Prediction {
 
 /// The in-process predictor: decode the request exactly as `cliffd` does, then predict
 /// straight into the output arrays with the GIL released (with the options and scores
-/// of [`cliff::predict::predict_with`]; the time is validated, the one map used).
+/// of [`cliff::predict::predict_with`], on the map of the time asked for when `map` is
+/// a time-of-day set).
 pub fn predict_local(
     py: Python<'_>,
-    map: Arc<CliffMap>,
+    map: &crate::map::Map,
     histories: &Bound<'_, PyAny>,
     args: &PredictArgs<'_>,
 ) -> PyResult<Prediction> {
+    // a time-of-day set: the slice of the time asked for, as cliffd picks it
+    let map: Arc<CliffMap> = match &map.set {
+        Some(set) => args.time.map_in(set).clone(),
+        None => map.inner.clone(),
+    };
     let params = args.params()?;
     let mut request = args.request("local")?;
     add_histories(py, histories, &mut request)?;

@@ -193,3 +193,18 @@ def test_time_of_day_sets_load_as_the_all_day_map_and_give_their_slices(tmp_path
     np.testing.assert_array_equal(again.slice_at(t19).components, h19.components)
     m.save(tmp_path / "again.csv")
     assert cliff_lhmp.Map.load(str(tmp_path / "again.csv")).info()["slices"] == 0
+    # predicting with a set: `time` picks the slice (as cliffd does), "all-day" the
+    # all-day map; a map without slices ignores the time
+    people = np.loadtxt(DATA / "atc" / "dev" / "atc-1024-19_test.csv", delimiter=",",
+                        max_rows=400)
+    pid = people[0, 1]
+    rows = people[people[:, 1] == pid][:6]
+    hist = rows[:, [0, 2, 3]]  # t, x, y (m)
+    kw = dict(k=20, dt=1.0, horizon=20.0, radius=1.0, seed=5)
+    on_set = m.predict([hist], time=t19, **kw)
+    on_slice = cliff_lhmp.predict(h19, [hist], **kw)
+    np.testing.assert_array_equal(on_set.positions, on_slice.positions)
+    all_day = m.predict([hist], time="all-day", **kw)
+    np.testing.assert_array_equal(all_day.positions, day.predict([hist], **kw).positions)
+    assert not np.array_equal(on_set.positions, all_day.positions, equal_nan=True)
+    np.testing.assert_array_equal(day.predict([hist], time=t19, **kw).positions, all_day.positions)

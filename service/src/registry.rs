@@ -66,16 +66,8 @@ pub(crate) fn map_for_time(entry: &MapEntry, when: MapTime) -> &Arc<CliffMap> {
     if !entry.set.is_sliced() {
         return &entry.map;
     }
-    match when {
-        MapTime::AllDay => entry.set.all_day(),
-        MapTime::At(t) => entry.set.at(t),
-        MapTime::Now => {
-            let now = std::time::SystemTime::now()
-                .duration_since(std::time::UNIX_EPOCH)
-                .map_or(0.0, |d| d.as_secs_f64());
-            entry.set.at(now)
-        }
-    }
+    // the rule in-process callers use too
+    when.map_in(&entry.set)
 }
 
 /// How maps are prepared: the radius limit, the table budget and the pinned radii.
