@@ -461,8 +461,8 @@ mod tests {
         let mut r = Registry::load(&[], policy(None, &[])).unwrap();
         let map = r.entries()[0].map.clone();
         assert!(map.table_stats().radii.is_empty());
-        r.want_table(0, 0.9);
-        r.want_table(0, 0.9); // queued once
+        r.want_table(&map, 0.9);
+        r.want_table(&map, 0.9); // queued once
         let t0 = Instant::now();
         while !map.table_settled(0.9) {
             assert!(t0.elapsed() < Duration::from_secs(10), "never built");
