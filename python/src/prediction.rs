@@ -3,6 +3,7 @@
 use std::sync::Arc;
 
 use cliff::map::CliffMap;
+use cliff::predict::preset::cost_factor;
 use cliff::predict::{BatchMut, predict_into_with};
 use cliff_client::protocol::{
     DecodeScratch, Limits, MAX_HISTORY, decode_request, scores_in_response,
@@ -196,7 +197,11 @@ pub fn predict_local(
                 "histories: {agents} people is too many for one call"
             ))
         })?,
-        max_k: params.k as u32,
+        // in-process there is no cost limit: `max_k` times the method's cost factor lets
+        // the decoder's cost check (agents x k x steps x factor) pass for this call
+        max_k: (params.k as u32).saturating_mul(
+            u32::try_from(cost_factor(&params, &args.options())).unwrap_or(u32::MAX),
+        ),
         max_steps: u32::try_from(steps).unwrap_or(u32::MAX),
         max_history: MAX_HISTORY,
     };
