@@ -77,6 +77,18 @@ fn main() {
                 speed_beta: 1.0,
                 coast: 4.0,
                 scores: true,
+                ..Options::default()
+            },
+        ),
+        (
+            // what the improved preset asks for (its beta 2 costs nothing more)
+            "improved",
+            Options {
+                follow: 4.0,
+                candidates: 5,
+                speed_prior: true,
+                scores: true,
+                ..Options::default()
             },
         ),
     ];
