@@ -8,11 +8,13 @@
 //! to the default case's time in the same round.
 //!
 //! Cases (as in `benches/predict.rs`): the THÖR1 person (k 20, 30 steps) and the ATC
-//! person (k 20, 50 steps), each with the default options, scores, scores and the speed
-//! kernel (speed_beta 1), and scores, speed kernel and coasting 4 s.
+//! person (k 20, 50 steps), each with the default options, scores, the speed kernel
+//! (speed_beta 1), coasting 4 s, follow 4, scores and the speed kernel, the three of
+//! scores, speed kernel and coasting, and the `improved` preset's options.
 //!
-//! Run: `cargo bench --bench options_cost [-- ROUNDS [CALLS_PER_BATCH]]` (default 200
-//! rounds of 50 calls).
+//! Run: `cargo bench --bench options_cost [-- ROUNDS [CALLS_PER_BATCH]] [CASE ...]`
+//! (default 200 rounds of 50 calls; the cases named, beside the default one, or all:
+//! scores, speed, coast, follow, speed_scores, all, improved).
 
 use std::hint::black_box;
 use std::path::{Path, PathBuf};
@@ -53,13 +55,39 @@ fn main() {
     let nums: Vec<usize> = std::env::args().filter_map(|a| a.parse().ok()).collect();
     let rounds = nums.first().copied().unwrap_or(200);
     let calls = nums.get(1).copied().unwrap_or(50);
+    // other words name the option cases to run (beside the default one)
+    let only: Vec<String> = std::env::args()
+        .skip(1)
+        .filter(|a| !a.starts_with('-') && a.parse::<usize>().is_err())
+        .collect();
 
-    let options = [
+    let options: Vec<(&str, Options)> = [
         ("default", Options::default()),
         (
             "scores",
             Options {
                 scores: true,
+                ..Options::default()
+            },
+        ),
+        (
+            "speed",
+            Options {
+                speed_beta: 1.0,
+                ..Options::default()
+            },
+        ),
+        (
+            "coast",
+            Options {
+                coast: 4.0,
+                ..Options::default()
+            },
+        ),
+        (
+            "follow",
+            Options {
+                follow: 4.0,
                 ..Options::default()
             },
         ),
@@ -91,7 +119,12 @@ fn main() {
                 ..Options::default()
             },
         ),
-    ];
+    ]
+    .into_iter()
+    .enumerate()
+    .filter(|(i, (name, _))| *i == 0 || only.is_empty() || only.iter().any(|o| o == name))
+    .map(|(_, case)| case)
+    .collect();
 
     let thor_map = CliffMap::load(data("thor1/cliffmap.csv")).unwrap();
     let thor = first_case(

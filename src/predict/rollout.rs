@@ -292,15 +292,23 @@ impl Call<'_, '_> {
         if self.params.method == Method::Cvm {
             return self.cvm(near);
         }
-        let motion =
-            self.extras.speed_beta > 0.0 || self.extras.coast_steps > 0 || self.extras.follow > 0.0;
+        let e = self.extras;
+        let motion = if e.coast_steps > 0 || e.follow > 0.0 {
+            ANY
+        } else if e.speed_beta > 0.0 {
+            SPEED
+        } else {
+            PAPER
+        };
         // candidates are ranked by their scores
-        let scores = self.scores.is_some() || self.extras.candidates > 1;
+        let scores = self.scores.is_some() || e.candidates > 1;
         match (motion, scores) {
-            (false, false) => self.cliff::<false, false>(near),
-            (false, true) => self.cliff::<false, true>(near),
-            (true, false) => self.cliff::<true, false>(near),
-            (true, true) => self.cliff::<true, true>(near),
+            (PAPER, false) => self.cliff::<PAPER, false>(near),
+            (PAPER, true) => self.cliff::<PAPER, true>(near),
+            (SPEED, false) => self.cliff::<SPEED, false>(near),
+            (SPEED, true) => self.cliff::<SPEED, true>(near),
+            (_, false) => self.cliff::<ANY, false>(near),
+            (_, true) => self.cliff::<ANY, true>(near),
         }
     }
 
@@ -321,9 +329,9 @@ impl Call<'_, '_> {
         }
     }
 
-    /// Roll every CLiFF-LHMP sample of every agent in the flavour `MOTION` (speed
-    /// kernel, coasting or follow on), `SCORES` (scores on, or candidates to rank).
-    fn cliff<const MOTION: bool, const SCORES: bool>(self, near: impl Fn(DVec2) -> Option<usize>) {
+    /// Roll every CLiFF-LHMP sample of every agent in the flavour `MOTION` ([`PAPER`],
+    /// [`SPEED`] or [`ANY`]), `SCORES` (scores on, or candidates to rank).
+    fn cliff<const MOTION: u8, const SCORES: bool>(self, near: impl Fn(DVec2) -> Option<usize>) {
         let Call {
             map,
             agents,
@@ -436,6 +444,13 @@ fn cvm_score(
     score
 }
 
+/// Lane-loop flavour: the paper's method, without per-sample speeds or coasting state.
+const PAPER: u8 = 0;
+/// Lane-loop flavour: the speed kernel alone (per-sample speeds, no coasting state).
+const SPEED: u8 = 1;
+/// Lane-loop flavour: any of the speed kernel, coasting and follow, as the options say.
+const ANY: u8 = 2;
+
 /// Group sizes: the samples of one agent are rolled side by side in groups of at most
 /// [`MAX_LANES`], each in the copy of the loop with the smallest lane count (4, 8, 12,
 /// 16 or 20) that holds it (idle lanes cost their share of the arithmetic: k = 12 takes
@@ -461,7 +476,7 @@ struct Lanes<'a, F> {
 impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
     /// All samples of one agent (`lens.len()` of them), in groups of up to
     /// [`MAX_LANES`].
-    fn roll_agent<const MOTION: bool, const SCORES: bool>(
+    fn roll_agent<const MOTION: u8, const SCORES: bool>(
         &self,
         rng: &mut Xoshiro256PlusPlus,
         tracks: &mut [Point],
@@ -499,12 +514,13 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
     /// is not part of it. (The location found there is the next step's sampling
     /// location, so each step queries the map once.)
     ///
-    /// With `MOTION` the speed kernel and coasting (see [`Options`]) are compiled in: a
-    /// sample that neither coasts nor changes speed does the same arithmetic and draws
-    /// as without (same bytes). With `SCORES` each step adds its log-density. Without
-    /// either, the loop is the paper's method and nothing else.
+    /// With `MOTION` [`SPEED`] the speed kernel is compiled in, with [`ANY`] the speed
+    /// kernel, coasting and follow as the options say (see [`Options`]): a sample that
+    /// neither coasts nor changes speed does the same arithmetic and draws as with
+    /// [`PAPER`] (same bytes). With `SCORES` each step adds its log-density. With
+    /// [`PAPER`] and without scores, the loop is the paper's method and nothing else.
     #[inline(never)]
-    fn roll<const N: usize, const MOTION: bool, const SCORES: bool>(
+    fn roll<const N: usize, const MOTION: u8, const SCORES: bool>(
         &self,
         rng: &mut Xoshiro256PlusPlus,
         tracks: &mut [Point],
@@ -524,9 +540,14 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
         let steps = tracks.len() / n;
         let dt = params.dt;
         let dist = state.speed * dt;
-        let with_speed = MOTION && extras.speed_beta > 0.0;
-        let with_follow = MOTION && extras.follow > 0.0;
-        let coast_steps = if MOTION { extras.coast_steps } else { 0 };
+        let moving = MOTION != PAPER;
+        let with_speed = match MOTION {
+            SPEED => true,
+            ANY => extras.speed_beta > 0.0,
+            _ => false,
+        };
+        let with_follow = MOTION == ANY && extras.follow > 0.0;
+        let coast_steps = if MOTION == ANY { extras.coast_steps } else { 0 };
         let coasting = coast_steps > 0;
         let theta0 = wrap_2pi(state.heading);
         let (s0, c0) = fastmath::sin_cos(theta0);
@@ -562,7 +583,7 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
             // Phase 1: draw at each sampling lane's location (in lane order).
             let mut drawing = [false; N];
             for l in 0..N {
-                if alive[l] && (!MOTION || on_map[l]) {
+                if alive[l] && (MOTION != ANY || on_map[l]) {
                     drawing[l] = true;
                     if with_speed {
                         (ts[l], rs[l]) = map.velocity_at(loc[l], rng);
@@ -611,7 +632,7 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
             }
             // The options: a coasting lane keeps its heading and speed; the speed moves
             // towards the drawn one.
-            if MOTION {
+            if moving {
                 if with_speed {
                     // branch-free over the lanes (single-precision kernel weight)
                     let beta = extras.speed_beta as f32;
@@ -652,7 +673,7 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
                 }
             }
             for l in 0..N {
-                let dist = if MOTION { speed[l] * dt } else { dist };
+                let dist = if moving { speed[l] * dt } else { dist };
                 px[l] += ux[l] as f64 * dist;
                 py[l] += uy[l] as f64 * dist;
             }
@@ -665,12 +686,12 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
                 match near(DVec2::new(px[l], py[l])) {
                     Some(next) => {
                         loc[l] = next;
-                        if MOTION {
+                        if MOTION == ANY {
                             on_map[l] = true;
                             coast_left[l] = coast_steps;
                         }
                     }
-                    None if MOTION && coast_left[l] > 0 => {
+                    None if MOTION == ANY && coast_left[l] > 0 => {
                         coast_left[l] -= 1;
                         on_map[l] = false;
                     }
