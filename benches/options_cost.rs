@@ -4,8 +4,10 @@
 //! criterion's separate runs of two cases can differ by more than the difference being
 //! measured. This probe alternates the cases within one process: round after round, a
 //! batch of calls of each case (the same person, seeds advancing), and reports per case
-//! the median over rounds of the time per call, and the median over rounds of its ratio
-//! to the default case's time in the same round.
+//! the median over rounds of the time per call, the median over rounds of its ratio
+//! to the default case's time in the same round, and the positions predicted per call
+//! (samples stop where the map has no data: an option that keeps them going does more
+//! work).
 //!
 //! Cases (as in `benches/predict.rs`): the THÖR1 person (k 20, 30 steps) and the ATC
 //! person (k 20, 50 steps), each with the default options, scores, the speed kernel
@@ -165,7 +167,10 @@ fn main() {
     };
 
     println!("{rounds} rounds of {calls} calls per case, alternating");
-    println!("{:<36} {:>12} {:>12}", "case", "median us", "vs default");
+    println!(
+        "{:<36} {:>12} {:>12} {:>10}",
+        "case", "median us", "vs default", "positions"
+    );
     for (name, map, case, params) in [
         ("thor1_person_k20_30steps", &thor_map, &thor, thor_params),
         ("atc_person_k20_50steps", &atc_map, &atc, atc_params),
@@ -173,6 +178,8 @@ fn main() {
         let mut batch = TrajectoryBatch::new();
         let mut seed = 0u64;
         let mut times = vec![Vec::with_capacity(rounds); options.len()];
+        // positions predicted per call (samples end where the map has no data)
+        let mut positions = vec![0u64; options.len()];
         for _ in 0..rounds {
             for (i, (_, opts)) in options.iter().enumerate() {
                 let t0 = Instant::now();
@@ -186,7 +193,7 @@ fn main() {
                         &mut batch,
                     )
                     .unwrap();
-                    black_box(batch.lens()[0]);
+                    positions[i] += batch.lens().iter().map(|&l| l as u64).sum::<u64>();
                 }
                 times[i].push(t0.elapsed().as_secs_f64() * 1e6 / calls as f64);
             }
@@ -194,10 +201,11 @@ fn main() {
         for (i, (label, _)) in options.iter().enumerate() {
             let mut ratios: Vec<f64> = times[i].iter().zip(&times[0]).map(|(t, d)| t / d).collect();
             println!(
-                "{:<36} {:>12.2} {:>12.3}",
+                "{:<36} {:>12.2} {:>12.3} {:>10.1}",
                 format!("{name}_{label}"),
                 median(&mut times[i].clone()),
-                median(&mut ratios)
+                median(&mut ratios),
+                positions[i] as f64 / (rounds * calls) as f64
             );
         }
     }
