@@ -32,7 +32,7 @@
 //! * **Candidates** ([`Options::candidates`] > 1): each agent's samples are the best
 //!   `k` of `candidates x k` drawn ones: those that reach furthest (the paper's rule
 //!   stops a sample where the map has no data), then the highest-scored. Costs
-//!   `candidates` times the work ([`Options::cost_factor`]).
+//!   `candidates` times the work (with follow, twice that: [`Options::cost_factor`]).
 //! * **Speed prior** ([`Options::speed_prior`]): the start speed regresses to the
 //!   typical speed of the map's walkers with the map's
 //!   [`SpeedPrior`](crate::motion::SpeedPrior) (`cliff map build` learns one; a map
@@ -103,10 +103,25 @@ impl Options {
             && !self.speed_prior
     }
 
-    /// How many times the paper's work a call with these options does (the samples
-    /// drawn per kept sample: [`Options::candidates`], at least 1).
+    /// How many times the paper's work a call with these options does, at most: the
+    /// samples drawn per kept sample ([`Options::candidates`], at least 1), times 2 with
+    /// follow on. What a daemon's cost limits and its scheduler count.
+    ///
+    /// Measured per predicted position on the benchmark people (`cargo bench --bench
+    /// options_cost`, BENCHMARKS.md): scores, the speed kernel and coasting each cost
+    /// under 1.3 times the paper's step, follow about 1.6 times; all of them together
+    /// 1.7 times, `improved` (5 candidates, follow, scores) 9.4-9.5 times per kept
+    /// position.
+    ///
+    /// ```
+    /// use cliff::predict::Options;
+    /// assert_eq!(Options::default().cost_factor(), 1);
+    /// assert_eq!(Options { scores: true, speed_beta: 1.0, ..Options::default() }.cost_factor(), 1);
+    /// assert_eq!(Options { follow: 4.0, candidates: 5, ..Options::default() }.cost_factor(), 10);
+    /// ```
     pub fn cost_factor(&self) -> usize {
-        self.candidates.max(1) as usize
+        let follow = if self.follow > 0.0 { 2 } else { 1 };
+        self.candidates.max(1) as usize * follow
     }
 
     /// Check the options; the error names the first unusable one.
