@@ -233,9 +233,9 @@ struct DirectionComponent {
 /// the component's bivariate normal).
 #[derive(Debug, Clone, Copy)]
 struct SpeedComponent {
-    mean: f64,
-    slope: f64,
-    sd: f64,
+    mean: f32,
+    slope: f32,
+    sd: f32,
 }
 
 /// Four components of one location for [`CliffMap::direction_following`], field by
@@ -591,15 +591,15 @@ impl CliffMap {
                 });
                 speed.push(if cov[0] > 0.0 {
                     SpeedComponent {
-                        mean: c.rho,
-                        slope: cov[1] / sigma,
-                        sd: (cov[3] - cov[1] * cov[1] / cov[0]).max(0.0).sqrt(),
+                        mean: c.rho as f32,
+                        slope: (cov[1] / sigma) as f32,
+                        sd: (cov[3] - cov[1] * cov[1] / cov[0]).max(0.0).sqrt() as f32,
                     }
                 } else {
                     SpeedComponent {
-                        mean: c.rho,
+                        mean: c.rho as f32,
                         slope: 0.0,
-                        sd: cov[3].max(0.0).sqrt(),
+                        sd: cov[3].max(0.0).sqrt() as f32,
                     }
                 });
                 // Scores: covariance eigenvalues floored as in `cliff map score`.
@@ -912,7 +912,7 @@ impl CliffMap {
         let z2: f64 = StandardNormal.sample(rng);
         (
             c.mu + c.sigma * z,
-            (sp.mean + sp.slope * z + sp.sd * z2).max(0.0),
+            (sp.mean + sp.slope * z as f32 + sp.sd * z2 as f32).max(0.0) as f64,
         )
     }
 
