@@ -1,4 +1,5 @@
-//! `cliff map build | score | update` as a user runs them, on real THÖR and ATC files.
+//! `cliff map build | score | update | info` as a user runs them, on real THÖR, ATC and
+//! THÖR-MAGNI files.
 
 use std::path::PathBuf;
 use std::process::Output;
@@ -285,4 +286,63 @@ fn absurd_maps_get_errors_with_file_line_and_column_not_panics() {
             && e.contains("grid step 1e300 m is not in [0.001, 1000] m"),
         "{e}"
     );
+}
+
+#[test]
+fn a_map_of_few_long_tracks_keeps_a_speed_prior_from_windows_and_info_shows_it() {
+    // the first 8 minutes of THÖR-MAGNI: 9 helmets, too few people, enough windows
+    let dir = tmp();
+    let map = p(&dir, "magni-first8.cliff");
+    let magni = data("magni/magni-A-first-16min.csv");
+    let built = ok(&cliff(&[
+        "map",
+        "build",
+        "--tracks",
+        &magni,
+        "--format",
+        "magni",
+        "--time-until",
+        "480",
+        "--grid",
+        "0.5",
+        "--radius",
+        "0.5",
+        "--out",
+        &map,
+        "--quiet",
+    ]));
+    let mut tracks =
+        cliff::eval::dataset::read_tracks(magni.as_ref(), cliff::eval::dataset::Format::Magni)
+            .unwrap();
+    cliff::eval::dataset::keep_time_range(&mut tracks, f64::NEG_INFINITY, 480.0);
+    let prior = cliff::motion::SpeedPrior::fit_tracks(&tracks).expect("a prior from windows");
+    let line = format!(
+        "speed prior         v = {:.3} + {:.3} (v0 - {:.3}) m/s, from {} pairs",
+        prior.mean, prior.keep, prior.mean, prior.pairs
+    );
+    assert!(built.contains(&line), "{built}\nexpected: {line}");
+    let info = ok(&cliff(&["map", "info", &map]));
+    assert!(info.contains(&line), "{info}\nexpected: {line}");
+    // without it, info says so
+    let none = p(&dir, "none.cliff");
+    ok(&cliff(&[
+        "map",
+        "build",
+        "--tracks",
+        &magni,
+        "--format",
+        "magni",
+        "--time-until",
+        "480",
+        "--grid",
+        "0.5",
+        "--radius",
+        "0.5",
+        "--out",
+        &none,
+        "--quiet",
+        "--no-speed-prior",
+    ]));
+    let info = ok(&cliff(&["map", "info", &none]));
+    assert!(info.contains("speed prior         none"), "{info}");
 }

@@ -25,7 +25,9 @@ use glam::DVec2;
 use crate::map::wrap_2pi;
 
 mod speed_prior;
-pub use speed_prior::{FIT_HORIZONS, MAX_PRIOR_SPEED, MIN_PAIRS, SpeedPrior};
+pub use speed_prior::{
+    FIT_HORIZONS, FIT_WINDOW_EVERY, MAX_PRIOR_SPEED, MIN_PAIRS, SHORT_FIT_HORIZONS, SpeedPrior,
+};
 
 /// The reference's velocity kernel width.
 pub const DEFAULT_SIGMA: f64 = 1.5;

@@ -119,8 +119,9 @@ pub struct BuildArgs {
     #[arg(long, value_name = "N", default_value_t = Smoothing::default().max_components)]
     pub slice_max_components: usize,
     /// Do not learn a speed prior (by default the map keeps how the tracks' speeds over
-    /// the next 10-50 s regress to their typical speed, for `--methods improved`;
-    /// stored in .cliff snapshots only).
+    /// the next 10-50 s regress to their typical speed, for `--methods improved`; from
+    /// windows along the tracks when they hold too few people, and over 4-8 s too
+    /// when those windows are too few; stored in .cliff snapshots only).
     #[arg(long)]
     pub no_speed_prior: bool,
     /// No progress bar.
@@ -257,7 +258,7 @@ fn print_speed_prior(a: &BuildArgs, prior: Option<SpeedPrior>) {
         }
         None if a.no_speed_prior => println!("speed prior         none (--no-speed-prior)"),
         None => println!(
-            "speed prior         none (fewer than {} walkers with 10 s ahead)",
+            "speed prior         none (fewer than {} pairs of start speed and speed 4-50 s ahead, from people or windows along the tracks)",
             cliff::motion::MIN_PAIRS
         ),
     }
