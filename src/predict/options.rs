@@ -4,7 +4,8 @@
 //!
 //! * **Speed kernel** ([`Options::speed_beta`] > 0): at each step the speed is drawn
 //!   with the direction (from the chosen component's bivariate normal, the speed given
-//!   the drawn direction) and the current speed `v` moves towards the drawn speed `r` as
+//!   the drawn direction; its noise a sum of four uniforms, see
+//!   [`CliffMap::velocity_at`]) and the current speed `v` moves towards the drawn speed `r` as
 //!   the heading does towards the drawn direction:
 //!   `v <- v + lambda * (r - v)`, `lambda = exp(-speed_beta * (r - v)^2)` (m/s; `lambda`
 //!   in single precision). The paper keeps the observed speed.
