@@ -19,28 +19,14 @@
 //! scores, speed, coast, follow, speed_scores, all, improved).
 
 use std::hint::black_box;
-use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use cliff::eval::dataset::{Format, read_tracks};
-use cliff::eval::protocol::{Case, Protocol, Settings, prepare};
 use cliff::map::CliffMap;
+use cliff::motion::State;
 use cliff::predict::{Options, Params, TrajectoryBatch, predict_with};
 
-fn data(p: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../shared/data")
-        .join(p)
-}
-
-fn first_case(tracks: &str, format: Format, settings: &Settings, min_steps: usize) -> Case {
-    read_tracks(&data(tracks), format)
-        .expect("tracks")
-        .iter()
-        .filter_map(|t| prepare(t, settings))
-        .find(|c| c.steps >= min_steps)
-        .expect("a person that passes the filter")
-}
+mod common;
+use common::{atc_person, atc_set, thor1_person};
 
 fn median(v: &mut [f64]) -> f64 {
     v.sort_by(f64::total_cmp);
@@ -128,43 +114,8 @@ fn main() {
     .map(|(_, case)| case)
     .collect();
 
-    let thor_map = CliffMap::load(data("thor1/cliffmap.csv")).unwrap();
-    let thor = first_case(
-        "thor1/exp-1-run-2.csv",
-        Format::Thor,
-        &Settings::default(),
-        1,
-    );
-    let thor_params = Params {
-        k: 20,
-        dt: 0.4,
-        horizon: 12.0,
-        radius: 0.7071,
-        beta: 1.0,
-        ..Params::default()
-    };
-    let atc_map = CliffMap::load(data("atc/cliffmap-20121024.csv")).unwrap();
-    let atc_settings = Settings {
-        protocol: Protocol::Seconds,
-        obs: 3.2,
-        dt: 1.0,
-        horizon: 50.0,
-        ..Settings::default()
-    };
-    let atc = first_case(
-        "atc/dev/atc-1024-13_test.csv",
-        Format::Atc,
-        &atc_settings,
-        50,
-    );
-    let atc_params = Params {
-        k: 20,
-        dt: 1.0,
-        horizon: 50.0,
-        radius: 1.0,
-        beta: 1.0,
-        ..Params::default()
-    };
+    let thor = thor1_person();
+    let atc = atc_person();
 
     println!("{rounds} rounds of {calls} calls per case, alternating");
     println!(
@@ -172,41 +123,88 @@ fn main() {
         "case", "median us", "vs default", "positions"
     );
     for (name, map, case, params) in [
-        ("thor1_person_k20_30steps", &thor_map, &thor, thor_params),
-        ("atc_person_k20_50steps", &atc_map, &atc, atc_params),
+        (
+            "thor1_person_k20_30steps",
+            &thor.map,
+            &thor.case,
+            thor.params,
+        ),
+        ("atc_person_k20_50steps", &atc.map, &atc.case, atc.params),
     ] {
-        let mut batch = TrajectoryBatch::new();
-        let mut seed = 0u64;
-        let mut times = vec![Vec::with_capacity(rounds); options.len()];
-        // positions predicted per call (samples end where the map has no data)
-        let mut positions = vec![0u64; options.len()];
-        for _ in 0..rounds {
-            for (i, (_, opts)) in options.iter().enumerate() {
-                let t0 = Instant::now();
-                for _ in 0..calls {
-                    seed += 1;
-                    predict_with(
-                        map,
-                        black_box(std::slice::from_ref(&case.start)),
-                        &Params { seed, ..params },
-                        opts,
-                        &mut batch,
-                    )
-                    .unwrap();
-                    positions[i] += batch.lens().iter().map(|&l| l as u64).sum::<u64>();
-                }
-                times[i].push(t0.elapsed().as_secs_f64() * 1e6 / calls as f64);
+        let cases: Vec<(String, Case<'_>)> = options
+            .iter()
+            .map(|(label, opts)| (format!("{name}_{label}"), (map, &case.start, params, *opts)))
+            .collect();
+        alternate(rounds, calls, &cases);
+    }
+
+    // Time of day: the ATC person on the benchmark's map, on the all-day map of the ATC
+    // set, and on the slice of the person's time of day (picked in every call).
+    if only.is_empty() || only.iter().any(|o| o == "slice") {
+        let set = atc_set();
+        let slice = set.at(atc.case.start.time);
+        let o = Options::default();
+        let cases = [
+            ("atc_person_k20_50steps_csv_map", &atc.map),
+            ("atc_person_k20_50steps_set_all_day", set.all_day().as_ref()),
+            ("atc_person_k20_50steps_set_slice", slice.as_ref()),
+        ]
+        .map(|(label, map)| (label.to_string(), (map, &atc.case.start, atc.params, o)));
+        // (the slice case picks its map through the set in every call)
+        alternate_with(rounds, calls, &cases, |i, _| match i {
+            2 => set.at(black_box(atc.case.start.time)),
+            _ => cases[i].1.0,
+        });
+    }
+}
+
+/// One case: the map, the person, the parameters and the options.
+type Case<'a> = (&'a CliffMap, &'a State, Params, Options);
+
+/// Run the cases alternately and print per case the median time per call, the median
+/// ratio to the first case's time in the same round, and the positions per call.
+fn alternate(rounds: usize, calls: usize, cases: &[(String, Case<'_>)]) {
+    alternate_with(rounds, calls, cases, |i, _| cases[i].1.0);
+}
+
+/// [`alternate`], the map of case `i` given by `map_of(i, seed)`.
+fn alternate_with<'a>(
+    rounds: usize,
+    calls: usize,
+    cases: &[(String, Case<'a>)],
+    map_of: impl Fn(usize, u64) -> &'a CliffMap,
+) {
+    let mut batch = TrajectoryBatch::new();
+    let mut seed = 0u64;
+    let mut times = vec![Vec::with_capacity(rounds); cases.len()];
+    // positions predicted per call (samples end where the map has no data)
+    let mut positions = vec![0u64; cases.len()];
+    for _ in 0..rounds {
+        for (i, (_, (_, start, params, opts))) in cases.iter().enumerate() {
+            let t0 = Instant::now();
+            for _ in 0..calls {
+                seed += 1;
+                predict_with(
+                    map_of(i, seed),
+                    black_box(std::slice::from_ref(*start)),
+                    &Params { seed, ..*params },
+                    opts,
+                    &mut batch,
+                )
+                .unwrap();
+                positions[i] += batch.lens().iter().map(|&l| l as u64).sum::<u64>();
             }
+            times[i].push(t0.elapsed().as_secs_f64() * 1e6 / calls as f64);
         }
-        for (i, (label, _)) in options.iter().enumerate() {
-            let mut ratios: Vec<f64> = times[i].iter().zip(&times[0]).map(|(t, d)| t / d).collect();
-            println!(
-                "{:<36} {:>12.2} {:>12.3} {:>10.1}",
-                format!("{name}_{label}"),
-                median(&mut times[i].clone()),
-                median(&mut ratios),
-                positions[i] as f64 / (rounds * calls) as f64
-            );
-        }
+    }
+    for (i, (label, _)) in cases.iter().enumerate() {
+        let mut ratios: Vec<f64> = times[i].iter().zip(&times[0]).map(|(t, d)| t / d).collect();
+        println!(
+            "{:<36} {:>12.2} {:>12.3} {:>10.1}",
+            label,
+            median(&mut times[i].clone()),
+            median(&mut ratios),
+            positions[i] as f64 / (rounds * calls) as f64
+        );
     }
 }

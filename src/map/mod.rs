@@ -310,6 +310,7 @@ fn follow_blocks(locations: &[Location]) -> (Vec<u32>, Vec<FollowBlock>) {
 /// relative error (about 1e-7) moves a choice only for draws within that of a boundary.
 /// Slots past the blocks hold the total.
 #[inline(always)]
+#[allow(clippy::needless_range_loop)] // four lanes, indexed alike
 fn follow_cumulative<const W: usize>(
     blocks: &[FollowBlock],
     ux: f32,
@@ -876,7 +877,7 @@ impl CliffMap {
     /// let east = (0..1000).filter(|_| map.direction_following(0, 1.0, 0.0, 4.0, &mut rng).cos() > 0.0).count();
     /// assert!(east > 990);
     /// ```
-    #[inline]
+    #[inline(always)]
     pub fn direction_following<R: Rng + ?Sized>(
         &self,
         index: usize,
