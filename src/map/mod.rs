@@ -351,6 +351,11 @@ fn count_below(cum: &[f32], u: f32) -> usize {
     cum.iter().map(|&c| (x >= c) as usize).sum()
 }
 
+/// The cumulative follow weights of one location for one heading
+/// ([`CliffMap::follow_weights`]).
+#[derive(Debug, Clone, Copy, Default)]
+pub struct FollowWeights([f32; 8]);
+
 /// Widest mixture whose locations get padded (see [`pad_components`]): more comparisons
 /// per draw than this cost more than the mispredicted branches they save.
 const MAX_PADDED_COMPONENTS: usize = 8;
@@ -877,7 +882,7 @@ impl CliffMap {
     /// let east = (0..1000).filter(|_| map.direction_following(0, 1.0, 0.0, 4.0, &mut rng).cos() > 0.0).count();
     /// assert!(east > 990);
     /// ```
-    #[inline(always)]
+    #[inline]
     pub fn direction_following<R: Rng + ?Sized>(
         &self,
         index: usize,
@@ -902,6 +907,47 @@ impl CliffMap {
         };
         // (padding repeats the last component)
         let i = below.min(b - a - 1);
+        let c = &self.table[a + i];
+        let z: f64 = StandardNormal.sample(rng);
+        c.mu + c.sigma * z
+    }
+
+    /// Whether every location's follow components fit [`FollowWeights`] (at most
+    /// eight components per location): then a predictor may split
+    /// [`direction_following`](Self::direction_following) into
+    /// [`follow_weights`](Self::follow_weights) and
+    /// [`draw_following`](Self::draw_following).
+    pub fn follow_weights_fit(&self) -> bool {
+        self.follow_start.windows(2).all(|w| w[1] - w[0] <= 2)
+    }
+
+    /// The part of [`direction_following`](Self::direction_following) that draws
+    /// nothing: location `index`'s cumulative component weights for the heading
+    /// `(ux, uy)`, scaled by a common factor. For maps where
+    /// [`follow_weights_fit`](Self::follow_weights_fit) (others get the weights of their
+    /// first eight components). A predictor computes them for all its samples before
+    /// they draw (the samples' arithmetic then overlaps).
+    #[inline(always)]
+    pub fn follow_weights(&self, index: usize, ux: f32, uy: f32, kappa: f32) -> FollowWeights {
+        let s = self.follow_start[index] as usize;
+        let e = (self.follow_start[index + 1] as usize).min(s + 2);
+        FollowWeights(follow_cumulative::<8>(&self.follow[s..e], ux, uy, kappa))
+    }
+
+    /// The draw of [`direction_following`](Self::direction_following) at location
+    /// `index` with its [`follow_weights`](Self::follow_weights): the same component
+    /// and direction for the same generator.
+    #[inline(always)]
+    pub fn draw_following<R: Rng + ?Sized>(
+        &self,
+        index: usize,
+        weights: &FollowWeights,
+        rng: &mut R,
+    ) -> f64 {
+        let a = self.comp_start[index] as usize;
+        let b = self.comp_start[index + 1] as usize;
+        let u = rng.random::<f64>() as f32;
+        let i = count_below(&weights.0, u).min(b - a - 1);
         let c = &self.table[a + i];
         let z: f64 = StandardNormal.sample(rng);
         c.mu + c.sigma * z
@@ -1385,6 +1431,22 @@ mod tests {
                     .unwrap();
                 counts[j] += 1;
             }
+            // split in two (as the predictor does where the weights fit), the same draws
+            if map.follow_weights_fit() {
+                let (mut r1, mut r2) = (
+                    rand_xoshiro::Xoshiro256PlusPlus::seed_from_u64(3),
+                    rand_xoshiro::Xoshiro256PlusPlus::seed_from_u64(3),
+                );
+                let (hx, hy) = (heading.cos(), heading.sin());
+                for _ in 0..1000 {
+                    let w = map.follow_weights(0, hx as f32, hy as f32, kappa as f32);
+                    assert_eq!(
+                        map.direction_following(0, hx, hy, kappa, &mut r1),
+                        map.draw_following(0, &w, &mut r2)
+                    );
+                }
+            }
+            assert_eq!(map.follow_weights_fit(), n <= 8);
             for (j, (&c, p)) in counts.iter().zip(&post).enumerate() {
                 let p = p / total;
                 let sd = (p * (1.0 - p) / draws as f64).sqrt();

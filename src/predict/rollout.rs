@@ -16,7 +16,7 @@ use rand_xoshiro::Xoshiro256PlusPlus;
 
 use super::options::{NO_LOCATION_LOG_DENSITY, Options};
 use super::{BatchMut, HeadingRule, Method, Params, Point, PredictError, fastmath, preset};
-use crate::map::{CliffMap, Lookup, wrap_2pi};
+use crate::map::{CliffMap, FollowWeights, Lookup, wrap_2pi};
 use crate::motion::{SpeedPrior, State};
 
 /// Which neighbour-table path a [`Rollout`] takes for CLiFF-LHMP map lookups.
@@ -547,6 +547,8 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
             _ => false,
         };
         let with_follow = MOTION == ANY && extras.follow > 0.0;
+        let follow_split = with_follow && map.follow_weights_fit();
+        let follow = extras.follow as f32;
         let coast_steps = if MOTION == ANY { extras.coast_steps } else { 0 };
         let coasting = coast_steps > 0;
         let theta0 = wrap_2pi(state.heading);
@@ -580,13 +582,21 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
         let mut score = [0.0f32; N];
         lens.fill(0);
         for j in 0..steps {
-            // Phase 1: draw at each sampling lane's location (in lane order).
+            // Phase 1: draw at each sampling lane's location (in lane order); follow's
+            // weights, which draw nothing, first for all lanes.
+            let weights = if follow_split {
+                follow_weights::<N>(map, &loc, &ux, &uy, &alive, &on_map, follow)
+            } else {
+                [FollowWeights::default(); N]
+            };
             let mut drawing = [false; N];
             for l in 0..N {
                 if alive[l] && (MOTION != ANY || on_map[l]) {
                     drawing[l] = true;
                     if with_speed {
                         (ts[l], rs[l]) = map.velocity_at(loc[l], rng);
+                    } else if follow_split {
+                        ts[l] = map.draw_following(loc[l], &weights[l], rng);
                     } else if with_follow {
                         let (hx, hy) = (ux[l] as f64, uy[l] as f64);
                         ts[l] = map.direction_following(loc[l], hx, hy, extras.follow, rng);
@@ -720,6 +730,27 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
             }
         }
     }
+}
+
+/// The follow weights of every lane that samples the map ([`CliffMap::follow_weights`]),
+/// computed apart from the lane loop (which stays small) and before the lanes draw.
+#[inline(never)]
+fn follow_weights<const N: usize>(
+    map: &CliffMap,
+    loc: &[usize; N],
+    ux: &[f32; N],
+    uy: &[f32; N],
+    alive: &[bool; N],
+    on_map: &[bool; N],
+    follow: f32,
+) -> [FollowWeights; N] {
+    let mut w = [FollowWeights::default(); N];
+    for l in 0..N {
+        if alive[l] && on_map[l] {
+            w[l] = map.follow_weights(loc[l], ux[l], uy[l], follow);
+        }
+    }
+    w
 }
 
 /// The reference's heading update for four lanes: the circular weighted mean of the
