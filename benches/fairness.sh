@@ -7,6 +7,8 @@
 #
 #   cargo build --release -p cliff-service -p cliff-client
 #   benches/fairness.sh
+#   BIG_METHOD=improved benches/fairness.sh   # the largest improved requests instead:
+#                                             # 3 agents (cost factor 10)
 #
 # Own iceoryx2 namespace (prefix `cliff_fair_`). Needs both cores: close other work.
 set -euo pipefail
@@ -14,6 +16,12 @@ cd "$(dirname "$0")/.."
 bin=${CARGO_TARGET_DIR:-target}/release
 export CLIFF_IPC_PREFIX="cliff_fair_"
 runs=${RUNS:-3}
+big_method=${BIG_METHOD:-cliff}
+case "$big_method" in
+    cliff) big_agents=32 ;;
+    improved) big_agents=3 ;; # 32 x 50 x 100 positions / (50 x 100 x 10)
+    *) echo "BIG_METHOD must be cliff or improved" >&2; exit 2 ;;
+esac
 daemon=
 stop() { if [ -n "$daemon" ]; then kill -INT "$daemon" 2>/dev/null || true; wait "$daemon" 2>/dev/null || true; fi; daemon=; }
 trap stop EXIT
@@ -24,8 +32,8 @@ out=$(mktemp)
 small() { "$bin/cliff-bench" --json --agents 1 --k 20 --steps 30 --rate 100 --requests 1000 --warmup 20 --wait hybrid; }
 echo "{\"case\":\"small-alone\",\"bench\":$(small)}" | tee -a "$out"
 for run in $(seq "$runs"); do
-    "$bin/cliff-bench" --json --agents 32 --k 50 --steps 100 --requests 3000 --warmup 20 \
-        --wait hybrid --deadline-ms 5000 > "$out.big" &
+    "$bin/cliff-bench" --json --agents "$big_agents" --k 50 --steps 100 --requests 3000 \
+        --warmup 20 --method "$big_method" --wait hybrid --deadline-ms 5000 > "$out.big" &
     big=$!
     sleep 1
     echo "{\"case\":\"small-beside-big\",\"run\":$run,\"bench\":$(small)}" | tee -a "$out"
