@@ -294,23 +294,29 @@ fn a_map_of_few_long_tracks_keeps_a_speed_prior_from_windows_and_info_shows_it()
     let dir = tmp();
     let map = p(&dir, "magni-first8.cliff");
     let magni = data("magni/magni-A-first-16min.csv");
-    let built = ok(&cliff(&[
-        "map",
-        "build",
-        "--tracks",
-        &magni,
-        "--format",
-        "magni",
-        "--time-until",
-        "480",
-        "--grid",
-        "0.5",
-        "--radius",
-        "0.5",
-        "--out",
-        &map,
-        "--quiet",
-    ]));
+    // the README's MAGNI map: the first 8 minutes, 0.5 m grid
+    let build = |out: &str, extra: &[&str]| {
+        let mut args = vec![
+            "map",
+            "build",
+            "--tracks",
+            &magni,
+            "--format",
+            "magni",
+            "--time-until",
+            "480",
+            "--grid",
+            "0.5",
+            "--radius",
+            "0.5",
+            "--out",
+            out,
+            "--quiet",
+        ];
+        args.extend_from_slice(extra);
+        ok(&cliff(&args))
+    };
+    let built = build(&map, &[]);
     let mut tracks =
         cliff::eval::dataset::read_tracks(magni.as_ref(), cliff::eval::dataset::Format::Magni)
             .unwrap();
@@ -325,24 +331,7 @@ fn a_map_of_few_long_tracks_keeps_a_speed_prior_from_windows_and_info_shows_it()
     assert!(info.contains(&line), "{info}\nexpected: {line}");
     // without it, info says so
     let none = p(&dir, "none.cliff");
-    ok(&cliff(&[
-        "map",
-        "build",
-        "--tracks",
-        &magni,
-        "--format",
-        "magni",
-        "--time-until",
-        "480",
-        "--grid",
-        "0.5",
-        "--radius",
-        "0.5",
-        "--out",
-        &none,
-        "--quiet",
-        "--no-speed-prior",
-    ]));
+    build(&none, &["--no-speed-prior"]);
     let info = ok(&cliff(&["map", "info", &none]));
     assert!(info.contains("speed prior         none"), "{info}");
 }
