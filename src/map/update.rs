@@ -561,11 +561,10 @@ pub(crate) fn merge(a: &Component, b: &Component) -> Component {
     }
 }
 
-/// Merge near-duplicates, prune tiny weights, cap the count (the lightest component is
-/// merged into its closest neighbour until the node fits, so strong flows keep their
-/// shape); weights renormalised and covariances kept positive definite.
-fn tidy(comps: &mut Vec<Component>, p: &UpdateParams, ch: &mut NodeChange) {
-    // Near-duplicates: closest pair first.
+/// Merge the closest pair of `comps` (Bhattacharyya distance) while it is closer than
+/// `merge_distance`; the number of merges.
+pub(crate) fn merge_near_duplicates(comps: &mut Vec<Component>, merge_distance: f64) -> usize {
+    let mut merged = 0;
     loop {
         let mut best: Option<(f64, usize, usize)> = None;
         for i in 0..comps.len() {
@@ -577,16 +576,21 @@ fn tidy(comps: &mut Vec<Component>, p: &UpdateParams, ch: &mut NodeChange) {
             }
         }
         match best {
-            Some((d, i, j)) if d < p.merge_distance => {
+            Some((d, i, j)) if d < merge_distance => {
                 comps[i] = merge(&comps[i], &comps[j]);
                 comps.remove(j);
-                ch.merged += 1;
+                merged += 1;
             }
-            _ => break,
+            _ => return merged,
         }
     }
-    // Cap.
-    while comps.len() > p.max_components {
+}
+
+/// Merge the lightest component of `comps` into its closest neighbour until at most
+/// `max_components` remain (so strong flows keep their shape); the number of merges.
+pub(crate) fn cap_components(comps: &mut Vec<Component>, max_components: usize) -> usize {
+    let mut merged = 0;
+    while comps.len() > max_components.max(1) {
         let light = (0..comps.len())
             .min_by(|&a, &b| comps[a].weight.total_cmp(&comps[b].weight))
             .expect("not empty");
@@ -599,8 +603,17 @@ fn tidy(comps: &mut Vec<Component>, p: &UpdateParams, ch: &mut NodeChange) {
             .expect("two or more");
         comps[into] = merge(&comps[into], &comps[light]);
         comps.remove(light);
-        ch.merged += 1;
+        merged += 1;
     }
+    merged
+}
+
+/// Merge near-duplicates, prune tiny weights, cap the count (the lightest component is
+/// merged into its closest neighbour until the node fits, so strong flows keep their
+/// shape); weights renormalised and covariances kept positive definite.
+fn tidy(comps: &mut Vec<Component>, p: &UpdateParams, ch: &mut NodeChange) {
+    ch.merged += merge_near_duplicates(comps, p.merge_distance);
+    ch.merged += cap_components(comps, p.max_components);
     let before = comps.len();
     let total: f64 = comps.iter().map(|c| c.weight).sum();
     if comps.len() > 1 {

@@ -9,7 +9,7 @@ use super::{
 use crate::map::build::{
     BuildError, BuildParams, Built, Observation, build_map_with_progress, check_observations,
 };
-use crate::map::update::{bhattacharyya, merge};
+use crate::map::update::{cap_components, merge_near_duplicates};
 use crate::map::{CliffMap, Component, Location, wrap_2pi};
 
 /// Options of [`build_map_set`] beyond those of every map.
@@ -350,38 +350,8 @@ fn add_scaled(to: &mut Vec<Component>, from: &[Component], total: f64) {
 /// its closest), drop components below [`MIN_WEIGHT`] of the total (never the
 /// heaviest) and normalise the weights.
 fn tidy(comps: &mut Vec<Component>, merge_distance: f64, max_components: usize) {
-    loop {
-        let mut best: Option<(f64, usize, usize)> = None;
-        for i in 0..comps.len() {
-            for j in i + 1..comps.len() {
-                let d = bhattacharyya(&comps[i], &comps[j]);
-                if best.is_none_or(|(bd, _, _)| d < bd) {
-                    best = Some((d, i, j));
-                }
-            }
-        }
-        match best {
-            Some((d, i, j)) if d < merge_distance => {
-                comps[i] = merge(&comps[i], &comps[j]);
-                comps.remove(j);
-            }
-            _ => break,
-        }
-    }
-    while comps.len() > max_components {
-        let light = (0..comps.len())
-            .min_by(|&a, &b| comps[a].weight.total_cmp(&comps[b].weight))
-            .expect("not empty");
-        let into = (0..comps.len())
-            .filter(|&k| k != light)
-            .min_by(|&a, &b| {
-                bhattacharyya(&comps[light], &comps[a])
-                    .total_cmp(&bhattacharyya(&comps[light], &comps[b]))
-            })
-            .expect("two or more");
-        comps[into] = merge(&comps[into], &comps[light]);
-        comps.remove(light);
-    }
+    merge_near_duplicates(comps, merge_distance);
+    cap_components(comps, max_components);
     let total: f64 = comps.iter().map(|c| c.weight).sum();
     let heaviest = comps.iter().map(|c| c.weight).fold(0.0, f64::max);
     comps.retain(|c| c.weight >= MIN_WEIGHT * total || c.weight == heaviest);
