@@ -11,7 +11,8 @@ use pyo3::prelude::*;
 use pyo3::types::PyString;
 
 use crate::errors::{client_err, io_err};
-use crate::histories::{PredictArgs, add_histories, time_arg};
+use crate::histories::add_histories;
+use crate::predict_signature::predict_fn;
 use crate::prediction::Prediction;
 
 /// Whether this build has the zenoh client (`cliff_lhmp.HAS_ZENOH`).
@@ -220,65 +221,6 @@ impl Client {
         })
     }
 
-    /// Ask the daemon for ``k`` samples per person with the map it serves as ``map``.
-    /// Arguments and result are those of ``cliff_lhmp.predict`` (``method="improved"``,
-    /// ``speed_beta``, ``coast``, ``scores=True``, ``time=`` included; ``time`` picks the
-    /// daemon's map of that time of day); the same map, histories and seed give the
-    /// same numbers, over shared memory and over zenoh. Raises ``Rejected`` (a
-    /// ValueError, with ``.status``, ``.field``, ``.agent`` and ``.row``) when the daemon
-    /// refuses the request (unknown map, limits), ``NoDaemon``/``DaemonGone``
-    /// (ConnectionError) and ``DeadlinePassed`` (TimeoutError).
-    #[pyo3(signature = (map, histories, *, k = 20, dt = 0.4, horizon = 12.0, beta = 1.0,
-        radius = 0.7071067811865476, seed = 0, method = "cliff", heading = "circular-mean",
-        speed_beta = 0.0, coast = 0.0, scores = false, time = None))]
-    #[allow(clippy::too_many_arguments)]
-    fn predict(
-        &self,
-        py: Python<'_>,
-        map: &str,
-        histories: &Bound<'_, PyAny>,
-        k: i64,
-        dt: f64,
-        horizon: f64,
-        beta: f64,
-        radius: f64,
-        seed: i128,
-        method: &str,
-        heading: &str,
-        speed_beta: f64,
-        coast: f64,
-        scores: bool,
-        time: Option<&Bound<'_, PyAny>>,
-    ) -> PyResult<Prediction> {
-        let args = PredictArgs {
-            k,
-            dt,
-            horizon,
-            beta,
-            radius,
-            seed,
-            method,
-            heading,
-            speed_beta,
-            coast,
-            scores,
-            time: time_arg(time)?,
-        };
-        let params = args.params()?;
-        let mut request = args.request(map)?;
-        add_histories(py, histories, &mut request)?;
-        let (shape, positions, lens, scores) = py
-            .detach(|| {
-                let mut client = self.inner.lock().unwrap_or_else(|p| p.into_inner());
-                let p = client.predict(&request)?;
-                let positions: Vec<f32> = p.positions().as_flattened().to_vec();
-                let scores = p.has_scores().then(|| p.scores().to_vec());
-                Ok((p.shape(), positions, p.lens().to_vec(), scores))
-            })
-            .map_err(|e| client_err(py, e))?;
-        Prediction::from_flat(py, shape, positions, &lens, scores, params.dt)
-    }
-
     /// reload_maps() -> None
     ///
     /// Ask the daemon to reload every map from its file (as ``SIGHUP`` does). Raises
@@ -316,6 +258,41 @@ impl Client {
                 self.endpoints, self.service
             ),
             _ => format!("Client(service={:?}, deadline={deadline})", self.service),
+        }
+    }
+}
+
+predict_fn! {
+    #[pymethods]
+    impl Client {
+        /// Ask the daemon for ``k`` samples per person with the map it serves as ``map``.
+        /// Arguments and result are those of ``cliff_lhmp.predict`` (``method="improved"``,
+        /// ``speed_beta``, ``coast``, ``scores=True``, ``time=`` included; ``time`` picks the
+        /// daemon's map of that time of day); the same map, histories and seed give the
+        /// same numbers, over shared memory and over zenoh. Raises ``Rejected`` (a
+        /// ValueError, with ``.status``, ``.field``, ``.agent`` and ``.row``) when the daemon
+        /// refuses the request (unknown map, limits), ``NoDaemon``/``DaemonGone``
+        /// (ConnectionError) and ``DeadlinePassed`` (TimeoutError).
+        fn predict(
+            &self,
+            py: Python<'_>,
+            map: &str,
+            histories: &Bound<'_, PyAny>,
+            ..args: PredictArgs
+        ) -> PyResult<Prediction> {
+            let params = args.params()?;
+            let mut request = args.request(map)?;
+            add_histories(py, histories, &mut request)?;
+            let (shape, positions, lens, scores) = py
+                .detach(|| {
+                    let mut client = self.inner.lock().unwrap_or_else(|p| p.into_inner());
+                    let p = client.predict(&request)?;
+                    let positions: Vec<f32> = p.positions().as_flattened().to_vec();
+                    let scores = p.has_scores().then(|| p.scores().to_vec());
+                    Ok((p.shape(), positions, p.lens().to_vec(), scores))
+                })
+                .map_err(|e| client_err(py, e))?;
+            Prediction::from_flat(py, shape, positions, &lens, scores, params.dt)
         }
     }
 }

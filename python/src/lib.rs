@@ -12,92 +12,66 @@ mod errors;
 mod evaluation;
 mod histories;
 mod map;
+mod predict_signature;
 mod prediction;
 
-use histories::PredictArgs;
 use map::Map;
+use predict_signature::predict_fn;
 
-/// Predict ``k`` future trajectories of every person, in-process (no daemon).
-///
-/// Args:
-///     map: the Map to predict with.
-///     histories: one 2-D array per person, oldest row first, of rows ``(t, x, y)``
-///         (at least 2 rows: the velocity comes from the positions) or
-///         ``(t, x, y, speed, heading)`` (at least 1 row: the tracker's speed in m/s
-///         and heading in rad). Times in s, positions in m. Any sequence of arrays (or
-///         nested lists) works, and so does one 3-D array (people, rows, columns).
-///         Only the last 64 rows are used (older rows have no weight).
-///     k: samples per person.
-///     dt: time step (s) between predicted positions.
-///     horizon: how far ahead (s); ``floor(horizon / dt)`` steps.
-///     beta: how strongly the heading turns towards a direction sampled from the map.
-///     radius: sampling radius (m): map locations strictly closer are used.
-///     seed: seed of the random generator; the same inputs and seed give the same
-///         numbers (also through ``Client.predict``).
-///     method: "cliff" (CLiFF-LHMP), "cvm" (constant velocity) or "improved" (a
-///         preset of the options beyond the paper).
-///     heading: "circular-mean" (the published code) or "paper" (the paper's formula).
-///     speed_beta: speed kernel parameter (per (m/s)^2): the speed moves towards speeds
-///         drawn from the map; 0 keeps the observed speed (the paper).
-///     coast: seconds (at most ``horizon``) a sample goes on at constant velocity where
-///         the map has no data; 0 stops it there (the paper).
-///     scores: also return a score per sample (``Prediction.scores``).
-///     time: for a time-of-day set (``Map.load`` of a set file), which of its maps:
-///         None (the slice of the wall clock now, as ``cliffd`` does), seconds on the
-///         map's clock (unix time, as the tracks had it: the slice of that time) or
-///         "all-day". A map without slices is used whatever the time (it is checked).
-///
-/// Returns:
-///     Prediction with ``positions`` (float32, shape (people, k, steps, 2), NaN after
-///     each sample's end), ``lengths`` (int64, shape (people, k)) and, with
-///     ``scores=True``, ``scores`` (float32, shape (people, k)).
-///
-/// Each person starts at its last row. Thousands of people in one call are fine;
-/// the GIL is released while Rust predicts.
-///
-/// Example:
-///     >>> import numpy as np, cliff_lhmp
-///     >>> walk = np.array([[0.0, -10.0, 0.5], [0.4, -9.5, 0.5], [0.8, -9.0, 0.5]])
-///     >>> p = cliff_lhmp.predict(cliff_lhmp.Map.demo(), [walk], k=5, horizon=4.0)
-///     >>> p.positions.shape, p.lengths.shape
-///     ((1, 5, 10, 2), (1, 5))
-#[pyfunction]
-#[pyo3(signature = (map, histories, *, k = 20, dt = 0.4, horizon = 12.0, beta = 1.0,
-    radius = 0.7071067811865476, seed = 0, method = "cliff", heading = "circular-mean",
-    speed_beta = 0.0, coast = 0.0, scores = false, time = None))]
-#[allow(clippy::too_many_arguments)]
-fn predict(
-    py: Python<'_>,
-    map: &Bound<'_, Map>,
-    histories: &Bound<'_, PyAny>,
-    k: i64,
-    dt: f64,
-    horizon: f64,
-    beta: f64,
-    radius: f64,
-    seed: i128,
-    method: &str,
-    heading: &str,
-    speed_beta: f64,
-    coast: f64,
-    scores: bool,
-    time: Option<&Bound<'_, PyAny>>,
-) -> PyResult<prediction::Prediction> {
-    let args = PredictArgs {
-        k,
-        dt,
-        horizon,
-        beta,
-        radius,
-        seed,
-        method,
-        heading,
-        speed_beta,
-        coast,
-        scores,
-        time: histories::time_arg(time)?,
-    };
-    prediction::predict_local(py, map.get(), histories, &args)
+predict_fn! {
+    /// Predict ``k`` future trajectories of every person, in-process (no daemon).
+    ///
+    /// Args:
+    ///     map: the Map to predict with.
+    ///     histories: one 2-D array per person, oldest row first, of rows ``(t, x, y)``
+    ///         (at least 2 rows: the velocity comes from the positions) or
+    ///         ``(t, x, y, speed, heading)`` (at least 1 row: the tracker's speed in m/s
+    ///         and heading in rad). Times in s, positions in m. Any sequence of arrays (or
+    ///         nested lists) works, and so does one 3-D array (people, rows, columns).
+    ///         Only the last 64 rows are used (older rows have no weight).
+    ///     k: samples per person.
+    ///     dt: time step (s) between predicted positions.
+    ///     horizon: how far ahead (s); ``floor(horizon / dt)`` steps.
+    ///     beta: how strongly the heading turns towards a direction sampled from the map.
+    ///     radius: sampling radius (m): map locations strictly closer are used.
+    ///     seed: seed of the random generator; the same inputs and seed give the same
+    ///         numbers (also through ``Client.predict``).
+    ///     method: "cliff" (CLiFF-LHMP), "cvm" (constant velocity) or "improved" (a
+    ///         preset of the options beyond the paper).
+    ///     heading: "circular-mean" (the published code) or "paper" (the paper's formula).
+    ///     speed_beta: speed kernel parameter (per (m/s)^2): the speed moves towards speeds
+    ///         drawn from the map; 0 keeps the observed speed (the paper).
+    ///     coast: seconds (at most ``horizon``) a sample goes on at constant velocity where
+    ///         the map has no data; 0 stops it there (the paper).
+    ///     scores: also return a score per sample (``Prediction.scores``).
+    ///     time: for a time-of-day set (``Map.load`` of a set file), which of its maps:
+    ///         None (the slice of the wall clock now, as ``cliffd`` does), seconds on the
+    ///         map's clock (unix time, as the tracks had it: the slice of that time) or
+    ///         "all-day". A map without slices is used whatever the time (it is checked).
+    ///
+    /// Returns:
+    ///     Prediction with ``positions`` (float32, shape (people, k, steps, 2), NaN after
+    ///     each sample's end), ``lengths`` (int64, shape (people, k)) and, with
+    ///     ``scores=True``, ``scores`` (float32, shape (people, k)).
+    ///
+    /// Each person starts at its last row. Thousands of people in one call are fine;
+    /// the GIL is released while Rust predicts.
+    ///
+    /// Example:
+    ///     >>> import numpy as np, cliff_lhmp
+    ///     >>> walk = np.array([[0.0, -10.0, 0.5], [0.4, -9.5, 0.5], [0.8, -9.0, 0.5]])
+    ///     >>> p = cliff_lhmp.predict(cliff_lhmp.Map.demo(), [walk], k=5, horizon=4.0)
+    ///     >>> p.positions.shape, p.lengths.shape
+    ///     ((1, 5, 10, 2), (1, 5))
+    #[pyfunction]
+    fn predict(
+        py: Python<'_>,
+        map: &Bound<'_, Map>,
+        histories: &Bound<'_, PyAny>,
+        ..args: PredictArgs
+    ) -> PyResult<prediction::Prediction> {
+        prediction::predict_local(py, map.get(), histories, &args)
+    }
 }
 
 /// The extension module; `cliff_lhmp` re-exports its contents.

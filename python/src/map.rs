@@ -16,7 +16,7 @@ use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyString};
 
 use crate::errors::{io_err, map_err};
-use crate::histories::{PredictArgs, time_arg};
+use crate::predict_signature::predict_fn;
 use crate::prediction::{Prediction, predict_local};
 
 /// A CLiFF-map: for each location, a mixture of the velocities people moved with there.
@@ -335,51 +335,27 @@ impl Map {
         Ok(d)
     }
 
-    /// The same as ``cliff_lhmp.predict(self, histories, ...)``.
-    #[pyo3(signature = (histories, *, k = 20, dt = 0.4, horizon = 12.0, beta = 1.0,
-        radius = 0.7071067811865476, seed = 0, method = "cliff", heading = "circular-mean",
-        speed_beta = 0.0, coast = 0.0, scores = false, time = None))]
-    #[allow(clippy::too_many_arguments)]
-    fn predict(
-        &self,
-        py: Python<'_>,
-        histories: &Bound<'_, PyAny>,
-        k: i64,
-        dt: f64,
-        horizon: f64,
-        beta: f64,
-        radius: f64,
-        seed: i128,
-        method: &str,
-        heading: &str,
-        speed_beta: f64,
-        coast: f64,
-        scores: bool,
-        time: Option<&Bound<'_, PyAny>>,
-    ) -> PyResult<Prediction> {
-        let args = PredictArgs {
-            k,
-            dt,
-            horizon,
-            beta,
-            radius,
-            seed,
-            method,
-            heading,
-            speed_beta,
-            coast,
-            scores,
-            time: time_arg(time)?,
-        };
-        predict_local(py, self, histories, &args)
-    }
-
     fn __repr__(&self) -> String {
         let i = self.inner.info();
         format!(
             "Map(locations={}, components={}, grid_step={})",
             i.locations, i.components, i.grid_step
         )
+    }
+}
+
+predict_fn! {
+    #[pymethods]
+    impl Map {
+        /// The same as ``cliff_lhmp.predict(self, histories, ...)``.
+        fn predict(
+            &self,
+            py: Python<'_>,
+            histories: &Bound<'_, PyAny>,
+            ..args: PredictArgs
+        ) -> PyResult<Prediction> {
+            predict_local(py, self, histories, &args)
+        }
     }
 }
 
