@@ -8,7 +8,7 @@ passes the reference filter; k 20, 30 steps of 0.4 s, radius 0.7071, beta 1), in
 
 Figures are medians over repeated batches of calls:
 
-* rust: `cargo bench --bench predict -- thor1_person_k20_30steps` (criterion's
+* rust: `cargo bench --bench predict -- '^thor1_person_k20_30steps$'` (criterion's
   estimate of the same call made from Rust), run by this script;
 * python, 1 person: `cliff_lhmp.predict(map, [history], k=20, ...)` per call, the seed
   changing from call to call as in the Rust benchmark;
@@ -108,7 +108,7 @@ def reference_like_predict(locs, comps_of, ratio, start, k, steps, dt, r_s, beta
 
 
 def rust_time() -> float:
-    cmd = ["cargo", "bench", "--bench", "predict", "--", "thor1_person_k20_30steps"]
+    cmd = ["cargo", "bench", "--bench", "predict", "--", "^thor1_person_k20_30steps$"]
     print("running:", " ".join(cmd), file=sys.stderr)
     out = subprocess.run(cmd, cwd=ROOT, capture_output=True, text=True, check=True).stdout
     m = re.search(r"thor1_person_k20_30steps\s+time:\s+\[(\S+) (\S+) (\S+) (\S+) (\S+) (\S+)\]", out)
