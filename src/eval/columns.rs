@@ -10,10 +10,17 @@
 //! 3. the positions: the difference to the agent's previous row over the time between
 //!    them (the agent's first row takes the difference to its second).
 //!
-//! Agent ids: a whole number is kept as it is. Otherwise ids are strings; when every
+//! Every value is bounded as in the THÖR and ATC readers
+//! ([`super::dataset::parse_tracks`]), the speeds found by 2. and 3. included: a speed
+//! above [`MAX_SPEED`] (two rows a microsecond apart and a metre away, say) is an error
+//! at its line.
+//!
+//! Agent ids: when every id of the file is a whole number and no two are the same number
+//! (`12` and `012` are), they are kept as they are. Otherwise ids are strings; when every
 //! string id of the file ends in digits and no two end in the same number, the id is that
 //! number (`Helmet_4` is person 4), else agents are numbered 1, 2, ... in order of first
-//! appearance. [`NamedTracks::names`] maps the numbers back to the file's ids.
+//! appearance. [`NamedTracks::names`] maps the numbers back to the file's ids; no two
+//! tracks of a file share a number.
 //!
 //! ```
 //! use cliff::eval::columns::{Columns, parse_named};
@@ -271,6 +278,8 @@ pub fn parse_named(text: &str, file: &str, columns: &Columns) -> Result<NamedTra
     let mut raw_ids: Vec<String> = Vec::new();
     let mut index: HashMap<String, usize> = HashMap::new();
     let mut rows: Vec<Vec<Row>> = Vec::new();
+    // the line of each row, for errors found after reading
+    let mut row_lines: Vec<Vec<usize>> = Vec::new();
     for (line, raw) in lines {
         let fields: Vec<&str> = raw.split(',').map(str::trim).collect();
         if fields.len() != header.len() {
@@ -329,7 +338,7 @@ pub fn parse_named(text: &str, file: &str, columns: &Columns) -> Result<NamedTra
             (Some(a), Some(b)) => Some(DVec2::new(within(a, MAX_SPEED)?, within(b, MAX_SPEED)?)),
             _ => None,
         };
-        let speed = match cspeed {
+        let speed_column = match cspeed {
             Some(c) => {
                 let s = within(c, MAX_SPEED)?;
                 if s < 0.0 {
@@ -341,15 +350,31 @@ pub fn parse_named(text: &str, file: &str, columns: &Columns) -> Result<NamedTra
                 }
                 Some(s)
             }
-            None => v.map(|v| v.length()),
+            None => None,
         };
-        let angle = match cangle {
-            Some(c) => Some(within(c, MAX_ANGLE)?),
-            None => v.map(heading_of),
+        let angle_column = cangle.map(|c| within(c, MAX_ANGLE)).transpose()?;
+        // the order of preference of the module documentation; (None, None): from the
+        // positions, once all rows are read
+        let (speed, angle) = match (speed_column, angle_column, v) {
+            (Some(s), Some(a), _) => (Some(s), Some(a)),
+            (s, _, Some(v)) => {
+                let s = s.unwrap_or(v.length());
+                if s > MAX_SPEED {
+                    let c = cvx.unwrap_or(0);
+                    return Err(err(
+                        line,
+                        c + 1,
+                        format!("speed {s} of ({}, {}) is beyond {MAX_SPEED}", v.x, v.y),
+                    ));
+                }
+                (Some(s), Some(heading_of(v)))
+            }
+            _ => (None, None),
         };
         let i = *index.entry(id.to_string()).or_insert_with(|| {
             raw_ids.push(id.to_string());
             rows.push(Vec::new());
+            row_lines.push(Vec::new());
             rows.len() - 1
         });
         if let Some(prev) = rows[i].last()
@@ -370,10 +395,20 @@ pub fn parse_named(text: &str, file: &str, columns: &Columns) -> Result<NamedTra
             speed: speed.unwrap_or(f64::NAN),
             angle: angle.unwrap_or(f64::NAN),
         });
+        row_lines[i].push(line);
     }
     if speed_from_positions(columns) {
-        for r in &mut rows {
-            velocities_from_positions(r);
+        for ((r, lines), id) in rows.iter_mut().zip(&row_lines).zip(&raw_ids) {
+            if let Err((a, b, speed)) = velocities_from_positions(r) {
+                return Err(err(
+                    lines[b],
+                    0,
+                    format!(
+                        "speed {speed} of agent {id} from its positions at lines {} and {} is beyond {MAX_SPEED}",
+                        lines[a], lines[b]
+                    ),
+                ));
+            }
         }
     }
     let ids = number_ids(&raw_ids);
@@ -387,8 +422,13 @@ pub fn parse_named(text: &str, file: &str, columns: &Columns) -> Result<NamedTra
     })
 }
 
+/// Whether the velocities come from the positions: neither a speed and an angle column
+/// nor both of vx and vy (a `Columns` built by hand may name an angle without a speed or
+/// only one of vx and vy; `--columns` refuses such mappings).
 fn speed_from_positions(c: &Columns) -> bool {
-    c.vx.is_none() && c.angle.is_none()
+    let speed_and_angle = c.speed.is_some() && c.angle.is_some();
+    let components = c.vx.is_some() && c.vy.is_some();
+    !(speed_and_angle || components)
 }
 
 /// Heading of a velocity; 0 when it is zero (a standing row).
@@ -397,8 +437,9 @@ fn heading_of(v: DVec2) -> f64 {
 }
 
 /// Speed and angle of each row from the position difference to the previous row (the
-/// first row: to the next one; a lone row stands still).
-fn velocities_from_positions(rows: &mut [Row]) {
+/// first row: to the next one; a lone row stands still). A speed above [`MAX_SPEED`]
+/// (infinite too: rows 1e-310 s apart) is returned with the two rows it comes from.
+fn velocities_from_positions(rows: &mut [Row]) -> Result<(), (usize, usize, f64)> {
     let n = rows.len();
     for i in 0..n {
         let (a, b) = match (i.checked_sub(1), i + 1 < n) {
@@ -411,17 +452,28 @@ fn velocities_from_positions(rows: &mut [Row]) {
             }
         };
         let v = (rows[b].position - rows[a].position) / (rows[b].t - rows[a].t);
-        rows[i].speed = v.length();
+        let speed = v.length();
+        if speed > MAX_SPEED {
+            return Err((a, b, speed));
+        }
+        rows[i].speed = speed;
         rows[i].angle = heading_of(v);
     }
+    Ok(())
 }
 
 /// Numeric ids for the file's id strings (see the module documentation).
 fn number_ids(raw: &[String]) -> Vec<u64> {
+    let distinct = |ids: &[u64]| {
+        let mut sorted = ids.to_vec();
+        sorted.sort_unstable();
+        sorted.windows(2).all(|w| w[0] != w[1])
+    };
     if let Some(ids) = raw
         .iter()
         .map(|s| s.parse::<u64>().ok())
         .collect::<Option<Vec<u64>>>()
+        && distinct(&ids)
     {
         return ids;
     }
@@ -433,12 +485,9 @@ fn number_ids(raw: &[String]) -> Vec<u64> {
         .iter()
         .map(|s| trailing(s))
         .collect::<Option<Vec<u64>>>()
+        && distinct(&ids)
     {
-        let mut sorted = ids.clone();
-        sorted.sort_unstable();
-        if sorted.windows(2).all(|w| w[0] != w[1]) {
-            return ids;
-        }
+        return ids;
     }
     (1..=raw.len() as u64).collect()
 }
@@ -532,6 +581,65 @@ mod tests {
         assert!(
             e(&format!("{head}1,H_1,0,0,0,0,0\n1,H_1,0,0,0,0,0\n"))
                 .contains("m.csv:3: column 1: time 1 of agent H_1 does not increase")
+        );
+    }
+
+    #[test]
+    fn track_numbers_are_distinct_velocities_as_documented_and_bounded() {
+        // `12` and `012` are the same whole number: numbered by first appearance
+        let text = "t,id,x,y\n0,12,0,0\n1,012,5,5\n2,12,1,0\n";
+        let n = parse_named(text, "p", &Columns::default()).unwrap();
+        assert_eq!(n.names, vec![(1, "12".into()), (2, "012".into())]);
+        let text = "t,id,x,y\n0,H_1,0,0\n1,H_01,5,5\n";
+        let n = parse_named(text, "p", &Columns::default()).unwrap();
+        assert_eq!(n.names, vec![(1, "H_1".into()), (2, "H_01".into())]);
+        // a hand-built mapping with an angle but no speed, or only vx: from the positions
+        let text = "t,id,x,y,a,u\n0,1,0,0,3,9\n0.5,1,0,1,3,9\n";
+        for columns in [
+            Columns {
+                angle: Some("a".into()),
+                ..Columns::default()
+            },
+            Columns {
+                vx: Some("u".into()),
+                ..Columns::default()
+            },
+        ] {
+            let n = parse_named(text, "p", &columns).unwrap();
+            for r in &n.tracks[0].rows {
+                assert_eq!(r.speed, 2.0);
+                assert!((r.angle - std::f64::consts::FRAC_PI_2).abs() < 1e-12);
+            }
+        }
+        // speeds from the positions or from vx, vy are bounded as the speed column is
+        let e = |text: &str, c: &str| {
+            parse_named(text, "p.csv", &cols(c))
+                .unwrap_err()
+                .to_string()
+        };
+        let m = e(
+            "t,id,x,y\n0,1,0,0\n5,2,0,0\n1e-6,1,2,0\n",
+            "t=t,id=id,x=x,y=y",
+        );
+        assert!(
+            m.starts_with("p.csv:4: column 0: speed 19999")
+                || m.starts_with("p.csv:4: column 0: speed 20000"),
+            "{m}"
+        );
+        assert!(
+            m.ends_with("of agent 1 from its positions at lines 2 and 4 is beyond 1000000"),
+            "{m}"
+        );
+        assert!(
+            e("t,id,x,y\n0,1,0,0\n1e-310,1,1,0\n", "t=t,id=id,x=x,y=y")
+                .contains("p.csv:3: column 0: speed inf of agent 1")
+        );
+        assert!(
+            e(
+                "t,id,x,y,u,v\n0,1,0,0,1e6,1e6\n",
+                "t=t,id=id,x=x,y=y,vx=u,vy=v"
+            )
+            .contains("p.csv:2: column 5: speed 1414213.56")
         );
     }
 
