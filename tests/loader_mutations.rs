@@ -5,7 +5,12 @@
 
 use std::path::Path;
 
-use cliff::eval::dataset::{DatasetError, Format, parse_track_bytes};
+use std::collections::HashSet;
+
+use cliff::eval::columns::{Columns, NamedTracks, parse_named};
+use cliff::eval::dataset::{
+    DatasetError, Format, MAX_ANGLE, MAX_POSITION, MAX_SPEED, MAX_TIME, Track, parse_track_bytes,
+};
 use cliff::map::{
     CliffMap, MapError, MapSet, SET_SNAPSHOT_VERSION, SNAPSHOT_MAGIC, SNAPSHOT_VERSION, SetParts,
     read_csv_bytes, read_csv_str, read_snapshot_bytes, write_csv_string,
@@ -323,6 +328,210 @@ fn fuzz_seed_corpus_replays_without_panics() {
             assert!(parse_track_bytes(&bytes, &name, format).is_ok(), "{name}");
         }
     }
+    // the inputs with which `tracks_named` found the named-column reader's faults (fuzz
+    // README): each is now read or refused as the module documentation says
+    for (name, bytes) in files("tracks_named") {
+        let (r, body) = read_as_tracks_named(&bytes);
+        let loaded = check_named_tracks(&r, &body);
+        assert!(loaded || name.contains("regression"), "{name}: {r:?}");
+        if name.ends_with("regression-same-number-ids.csv") {
+            // ids `1` and `01`: two agents, numbered by first appearance
+            let ids: Vec<u64> = r.as_ref().unwrap().iter().map(|t| t.id).collect();
+            assert_eq!(ids, [1, 2]);
+        } else if name.ends_with("regression-angle-without-speed.csv") {
+            // an angle column without a speed column: velocities from the positions
+            let tracks = r.as_ref().unwrap();
+            assert!(tracks.iter().any(|t| t.rows.iter().any(|r| r.speed > 0.1)));
+        } else if name.ends_with("regression-speed-from-positions.csv") {
+            let e = r.unwrap_err().to_string();
+            assert!(
+                e.starts_with("fuzz.csv:3: column 0: speed 19175")
+                    && e.ends_with(
+                        "of agent Helmet_8 from its positions at lines 2 and 3 is beyond 1000000"
+                    ),
+                "{e}"
+            );
+        }
+    }
+}
+
+/// An input of the `tracks_named` fuzz target read as the target reads it: the first
+/// byte (modulo 4) picks `Format::Magni` (0), `Format::Csv` (1), a column mapping in the
+/// first line parsed as `--columns` is (2) or header names of `t, id, x, y, speed,
+/// angle, vx, vy` put into `Columns` directly (3); returns the tracks and the bytes read
+/// as the file.
+fn read_as_tracks_named(data: &[u8]) -> (Result<Vec<Track>, DatasetError>, Vec<u8>) {
+    let (mode, rest) = data.split_first().expect("a mode byte");
+    let (spec, body) = match rest.iter().position(|&b| b == b'\n') {
+        Some(i) => (&rest[..i], &rest[i + 1..]),
+        None => (rest, &[][..]),
+    };
+    let spec = String::from_utf8_lossy(spec);
+    let columns = match mode % 4 {
+        0 => {
+            return (
+                parse_track_bytes(rest, "fuzz.csv", Format::Magni),
+                rest.to_vec(),
+            );
+        }
+        1 => {
+            return (
+                parse_track_bytes(rest, "fuzz.csv", Format::Csv),
+                rest.to_vec(),
+            );
+        }
+        2 => spec.parse::<Columns>().expect("a seed's mapping parses"),
+        _ => {
+            let mut names = spec.split(',').map(|s| s.trim().to_string());
+            let mut next = || names.next().filter(|s| !s.is_empty());
+            Columns {
+                t: next().unwrap_or_default(),
+                id: next().unwrap_or_default(),
+                x: next().unwrap_or_default(),
+                y: next().unwrap_or_default(),
+                speed: next(),
+                angle: next(),
+                vx: next(),
+                vy: next(),
+            }
+        }
+    };
+    let r = parse_named(&String::from_utf8_lossy(body), "fuzz.csv", &columns);
+    if let Ok(named) = &r {
+        check_names(named);
+    }
+    (r.map(|n| n.tracks), body.to_vec())
+}
+
+/// The invariants the `tracks_named` fuzz target checks: tracks with distinct ids and
+/// rows strictly increasing in time within the bounds of the THÖR and ATC readers, or a
+/// `DatasetError::Parse` naming `fuzz.csv`, a line of the input and a column no further
+/// right than its fields. True when the tracks loaded.
+fn check_named_tracks(r: &Result<Vec<Track>, DatasetError>, bytes: &[u8]) -> bool {
+    let lines = lines_of(bytes);
+    match r {
+        Ok(tracks) => {
+            let mut ids = HashSet::new();
+            let mut rows = 0;
+            for t in tracks {
+                assert!(ids.insert(t.id), "two tracks with id {}", t.id);
+                assert!(!t.rows.is_empty());
+                rows += t.rows.len();
+                assert!(t.rows.windows(2).all(|w| w[0].t < w[1].t));
+                for r in &t.rows {
+                    assert!(r.t.is_finite() && r.t.abs() <= MAX_TIME, "{r:?}");
+                    assert!(r.position.is_finite(), "{r:?}");
+                    assert!(r.position.abs().max_element() <= MAX_POSITION, "{r:?}");
+                    assert!((0.0..=MAX_SPEED).contains(&r.speed), "{r:?}");
+                    assert!(r.angle.is_finite() && r.angle.abs() <= MAX_ANGLE, "{r:?}");
+                }
+            }
+            assert!(rows < lines, "{rows} rows from {lines} lines");
+            true
+        }
+        Err(DatasetError::Parse {
+            file,
+            line,
+            column,
+            message,
+        }) => {
+            assert_eq!(file, "fuzz.csv");
+            assert!(
+                *line >= 1 && *line <= lines,
+                "line {line} of {lines}: {message}"
+            );
+            if !message.contains("UTF-8") {
+                let fields = bytes
+                    .split(|&b| b == b'\n')
+                    .map(|l| l.iter().filter(|&&b| b == b',').count() + 1)
+                    .max()
+                    .unwrap_or(1);
+                assert!(*column <= fields, "column {column} of {fields}: {message}");
+            }
+            false
+        }
+        Err(e) => panic!("a track error without line and column: {e}"),
+    }
+}
+
+/// One name per track, each a distinct agent id of the file.
+fn check_names(n: &NamedTracks) {
+    assert_eq!(n.names.len(), n.tracks.len());
+    let mut seen = HashSet::new();
+    for ((id, name), t) in n.names.iter().zip(&n.tracks) {
+        assert_eq!(*id, t.id);
+        assert!(!name.is_empty() && name.trim() == name && !name.contains(','));
+        assert!(seen.insert(name), "agent {name} twice");
+    }
+}
+
+/// The named-column readers (THÖR-MAGNI and CSV with a column mapping) under the same
+/// mutations as the THÖR and ATC files: MAGNI rows as `Format::Magni`, the same rows
+/// with positions only under a mapping, THÖR1 rows with a header under a mapping naming
+/// speed and angle (numeric ids), ATC rows as `Format::Csv` (unix times, large ids).
+/// The mappings themselves are mutated too: each is refused with a message or writes
+/// back to itself.
+#[test]
+fn mutated_named_column_files_load_or_name_line_and_column() {
+    let magni = head("magni/magni-A-first-16min.csv", 300);
+    let thor = [
+        b"when,who,px,py,v,dir\n".as_slice(),
+        &head("thor1/exp-1-run-2.csv", 300),
+    ]
+    .concat();
+    let atc = [
+        b"t,id,x,y,speed,angle\n".as_slice(),
+        &head("atc/dev/atc-1024-13_test.csv", 300),
+    ]
+    .concat();
+    let mut rng = Xoshiro256PlusPlus::seed_from_u64(13);
+    let (mut loaded, mut refused) = (0, 0);
+    let inputs: [(&[u8], &str); 4] = [
+        (&magni, "magni"),
+        (&magni, "t=Time,id=ag_id,x=x,y=y"),
+        (&thor, "t=when,id=who,x=px,y=py,speed=v,angle=dir"),
+        (&atc, "csv"),
+    ];
+    for (original, how) in inputs {
+        let read = |bytes: &[u8], columns: &str| match columns {
+            "magni" => parse_track_bytes(bytes, "fuzz.csv", Format::Magni),
+            "csv" => parse_track_bytes(bytes, "fuzz.csv", Format::Csv),
+            spec => {
+                let columns: Columns = spec.parse().unwrap();
+                let r = parse_named(&String::from_utf8_lossy(bytes), "fuzz.csv", &columns);
+                if let Ok(named) = &r {
+                    check_names(named);
+                }
+                r.map(|n| n.tracks)
+            }
+        };
+        let tracks = read(original, how).unwrap();
+        assert!(
+            tracks.len() >= 2 && check_named_tracks(&Ok(tracks), original),
+            "{how}"
+        );
+        for _ in 0..1500 {
+            let bytes = mutate(original, &mut rng);
+            if check_named_tracks(&read(&bytes, how), &bytes) {
+                loaded += 1;
+            } else {
+                refused += 1;
+            }
+        }
+        if how.contains('=') {
+            for _ in 0..300 {
+                let spec = String::from_utf8_lossy(&mutate(how.as_bytes(), &mut rng)).into_owned();
+                match spec.trim().parse::<Columns>() {
+                    Ok(c) => assert_eq!(c.to_string().parse::<Columns>(), Ok(c.clone()), "{spec}"),
+                    Err(message) => assert!(!message.is_empty(), "{spec}"),
+                }
+            }
+        }
+    }
+    assert!(
+        loaded > 500 && refused > 2500,
+        "{loaded} loaded, {refused} refused"
+    );
 }
 
 #[test]
