@@ -6,9 +6,9 @@
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 
-use cliff::eval::dataset::{Format, read_many};
 use cliff::map::build::{BuildParams, Observation, build_map, observations_from_tracks};
 use cliff::map::update::{OnlineMap, UpdateParams};
+use cliff::tracks::{Format, read_many};
 use criterion::{Criterion, criterion_group, criterion_main};
 
 fn train(hours: &[u32]) -> Vec<Observation> {

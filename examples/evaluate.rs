@@ -8,11 +8,11 @@
 
 use std::path::Path;
 
-use cliff::eval::dataset::{Format, read_tracks};
 use cliff::eval::protocol::Settings;
 use cliff::eval::{EvalConfig, evaluate, summary_table};
 use cliff::map::CliffMap;
 use cliff::predict::{Method, Options, Params};
+use cliff::tracks::{Format, read_tracks};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/data/thor1");

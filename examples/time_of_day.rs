@@ -7,7 +7,8 @@
 //! Run: `cargo run --release --example time_of_day` (builds the set: a few seconds)
 
 use cliff::map::build::{BuildParams, Observation};
-use cliff::map::{CliffMap, SliceParams, build_map_set, wrap_2pi};
+use cliff::map::{CliffMap, SliceParams, build_map_set};
+use cliff::math::wrap_2pi;
 use cliff::motion::State;
 use cliff::predict::{Params, TrajectoryBatch, predict};
 use glam::DVec2;

@@ -21,9 +21,10 @@
 mod bounded_read;
 pub mod eval;
 pub mod map;
+pub mod math;
 pub mod motion;
 pub mod plot;
 pub mod predict;
-pub mod scene;
+pub mod tracks;
 
 pub use glam;

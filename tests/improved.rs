@@ -4,12 +4,12 @@
 
 use std::path::{Path, PathBuf};
 
-use cliff::eval::dataset::{Format, read_many};
 use cliff::eval::protocol::{Protocol, Settings};
 use cliff::eval::{EvalConfig, SummaryRow, evaluate};
 use cliff::map::build::{BuildParams, build_map, observations_from_tracks};
 use cliff::motion::SpeedPrior;
 use cliff::predict::{Method, Params};
+use cliff::tracks::{Format, read_many};
 
 fn atc(dir: &str, hours: &[u32], suffix: &str) -> Vec<PathBuf> {
     let d = Path::new(env!("CARGO_MANIFEST_DIR"))

@@ -7,13 +7,13 @@ use std::path::Path;
 
 use std::collections::HashSet;
 
-use cliff::eval::columns::{Columns, NamedTracks, parse_named};
-use cliff::eval::dataset::{
-    DatasetError, Format, MAX_ANGLE, MAX_POSITION, MAX_SPEED, MAX_TIME, Track, parse_track_bytes,
-};
 use cliff::map::{
     CliffMap, MapError, MapSet, SET_SNAPSHOT_VERSION, SNAPSHOT_MAGIC, SNAPSHOT_VERSION, SetParts,
     read_csv_bytes, read_csv_str, read_snapshot_bytes, write_csv_string,
+};
+use cliff::tracks::{Columns, NamedTracks, parse_named};
+use cliff::tracks::{
+    DatasetError, Format, MAX_ANGLE, MAX_POSITION, MAX_SPEED, MAX_TIME, Track, parse_track_bytes,
 };
 use rand::{Rng, RngExt, SeedableRng};
 use rand_xoshiro::Xoshiro256PlusPlus;

@@ -7,15 +7,15 @@ use std::f64::consts::PI;
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 
-use cliff::eval::dataset::{Format, read_many};
 use cliff::map::CliffMap;
 use cliff::map::build::{
     BuildParams, Built, FitParams, MeanShift, Observation, build_map, fit_mixture,
-    observations_from_tracks, wrap_pi,
+    observations_from_tracks,
 };
 use cliff::map::score::{ScoreParams, ScoreReport, score};
 use cliff::map::update::{OnlineMap, UpdateParams};
-use cliff::map::wrap_2pi;
+use cliff::math::{wrap_2pi, wrap_pi};
+use cliff::tracks::{Format, read_many};
 use rand::SeedableRng;
 use rand_distr::{Distribution, StandardNormal};
 

@@ -318,9 +318,8 @@ fn a_map_of_few_long_tracks_keeps_a_speed_prior_from_windows_and_info_shows_it()
     };
     let built = build(&map, &[]);
     let mut tracks =
-        cliff::eval::dataset::read_tracks(magni.as_ref(), cliff::eval::dataset::Format::Magni)
-            .unwrap();
-    cliff::eval::dataset::keep_time_range(&mut tracks, f64::NEG_INFINITY, 480.0);
+        cliff::tracks::read_tracks(magni.as_ref(), cliff::tracks::Format::Magni).unwrap();
+    cliff::tracks::keep_time_range(&mut tracks, f64::NEG_INFINITY, 480.0);
     let prior = cliff::motion::SpeedPrior::fit_tracks(&tracks).expect("a prior from windows");
     let line = format!(
         "speed prior         v = {:.3} + {:.3} (v0 - {:.3}) m/s, from {} pairs",

@@ -11,11 +11,11 @@
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
-use cliff::eval::dataset::{Format, read_many, read_tracks};
 use cliff::eval::protocol::Settings;
 use cliff::eval::{EvalConfig, SummaryRow, evaluate};
 use cliff::map::CliffMap;
 use cliff::predict::{Method, Params};
+use cliff::tracks::{Format, read_many, read_tracks};
 
 fn data(p: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))

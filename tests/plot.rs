@@ -4,7 +4,6 @@
 
 use std::path::{Path, PathBuf};
 
-use cliff::eval::dataset::{Format, read_tracks};
 use cliff::eval::person_seed;
 use cliff::eval::protocol::{Case, Protocol, Settings, prepare};
 use cliff::map::CliffMap;
@@ -13,7 +12,8 @@ use cliff::plot::{
     curves_layout, direction_colour, hue_saturation, read_summary,
 };
 use cliff::predict::{Params, TrajectoryBatch, predict};
-use cliff::scene::{SceneOptions, demo_tracks, tracks_csv};
+use cliff::tracks::scene::{SceneOptions, demo_tracks, tracks_csv};
+use cliff::tracks::{Format, read_tracks};
 use glam::DVec2;
 use image::RgbImage;
 

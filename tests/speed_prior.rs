@@ -3,9 +3,9 @@
 
 use std::path::{Path, PathBuf};
 
-use cliff::eval::dataset::{Format, read_many};
 use cliff::eval::protocol::{Protocol, Settings, prepare_all};
 use cliff::motion::SpeedPrior;
+use cliff::tracks::{Format, read_many};
 
 fn files(dir: &str) -> Vec<PathBuf> {
     let d = Path::new(env!("CARGO_MANIFEST_DIR"))

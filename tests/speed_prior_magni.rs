@@ -8,8 +8,8 @@
 use std::collections::BTreeMap;
 use std::path::Path;
 
-use cliff::eval::dataset::{Format, keep_time_range, read_tracks};
 use cliff::motion::{FIT_HORIZONS, FIT_WINDOW_EVERY, MIN_PAIRS, SpeedPrior};
+use cliff::tracks::{Format, keep_time_range, read_tracks};
 
 const FILE: &str = "../shared/data/magni/magni-A-first-16min.csv";
 const UNTIL: f64 = 480.0;

@@ -6,14 +6,15 @@ use std::path::{Path, PathBuf};
 use std::process::Output;
 use std::sync::Arc;
 
-use cliff::eval::dataset::{Format, read_many};
 use cliff::eval::protocol::{Protocol, Settings};
 use cliff::eval::{EvalConfig, evaluate};
 use cliff::map::build::{BuildParams, Observation, timed_observations_from_tracks};
 use cliff::map::score::{ScoreParams, score, score_set};
-use cliff::map::{CliffMap, MapSet, SliceParams, Smoothing, build_map_set, wrap_2pi};
+use cliff::map::{CliffMap, MapSet, SliceParams, Smoothing, build_map_set};
+use cliff::math::wrap_2pi;
 use cliff::motion::State;
 use cliff::predict::{Method, Params, TrajectoryBatch, predict};
+use cliff::tracks::{Format, read_many};
 use glam::DVec2;
 use rand::{RngExt, SeedableRng};
 use rand_distr::{Distribution, StandardNormal};

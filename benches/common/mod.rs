@@ -12,11 +12,11 @@
 
 use std::path::{Path, PathBuf};
 
-use cliff::eval::dataset::{Format, read_many, read_tracks};
 use cliff::eval::protocol::{Case, Protocol, Settings, prepare};
 use cliff::map::build::{BuildParams, timed_observations_from_tracks};
 use cliff::map::{CliffMap, MapSet, SliceParams, Smoothing, build_map_set};
 use cliff::predict::Params;
+use cliff::tracks::{Format, read_many, read_tracks};
 
 /// A path under the shared data folder.
 pub fn data(p: &str) -> PathBuf {

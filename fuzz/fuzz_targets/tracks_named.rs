@@ -18,8 +18,8 @@
 
 use std::collections::HashSet;
 
-use cliff::eval::columns::{Columns, NamedTracks, parse_named};
-use cliff::eval::dataset::{
+use cliff::tracks::{Columns, NamedTracks, parse_named};
+use cliff::tracks::{
     DatasetError, Format, MAX_ANGLE, MAX_POSITION, MAX_SPEED, MAX_TIME, Track, parse_track_bytes,
 };
 use libfuzzer_sys::fuzz_target;

@@ -2,7 +2,7 @@
 //! invariants, or names the file, line and column of what is wrong.
 #![no_main]
 
-use cliff::eval::dataset::{DatasetError, Format, parse_track_bytes};
+use cliff::tracks::{DatasetError, Format, parse_track_bytes};
 use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {

@@ -3,12 +3,12 @@
 use std::path::PathBuf;
 use std::sync::{Arc, Mutex};
 
-use cliff::eval::dataset::{Format, Track, read_many};
 use cliff::map::build::observations_from_tracks;
 use cliff::map::update::UpdateReport;
 use cliff::map::{
     BuildParams, CliffMap, MapSet, OnlineMap as RustOnlineMap, ScoreParams, UpdateParams,
 };
+use cliff::tracks::{Format, Track, read_many};
 use numpy::ndarray::{Array1, Array2};
 use numpy::{IntoPyArray, PyArray1, PyArray2};
 use pyo3::exceptions::{PyTypeError, PyValueError};
@@ -82,7 +82,7 @@ pub fn read_tracks_arg(tracks: &Bound<'_, PyAny>, format: Format) -> PyResult<Ve
         }
     }
     read_many(&paths, format).map_err(|e| match &e {
-        cliff::eval::dataset::DatasetError::Io { file, source } => io_err("tracks", file, source),
+        cliff::tracks::DatasetError::Io { file, source } => io_err("tracks", file, source),
         _ => PyValueError::new_err(format!("tracks: {e}")),
     })
 }

@@ -6,9 +6,9 @@ mod common;
 
 use std::time::{Duration, Instant};
 
-use cliff::eval::dataset::{Format, read_tracks};
 use cliff::map::CliffMap;
 use cliff::predict::{Method, Params};
+use cliff::tracks::{Format, read_tracks};
 use cliff_client::protocol::{self, MapTime};
 use cliff_client::{
     Error, Field, Observation, PROTOCOL_VERSION, Request, Status, WaitMode, legacy,

@@ -118,7 +118,7 @@ fn a_client_moves_to_another_thread_and_can_be_shared() {
 
 use std::time::Duration;
 
-use cliff::eval::dataset::{Format, read_tracks};
+use cliff::tracks::{Format, read_tracks};
 use cliff_client::protocol::{FLAG_SCORES, FLAG_VELOCITY, Field, METHOD_CVM, TIME_AT};
 use cliff_client::{Error, Observation, Request, RequestHeader, Status};
 

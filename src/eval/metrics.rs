@@ -121,8 +121,8 @@ pub fn person_errors<'a>(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::eval::dataset::Row;
     use crate::motion::State;
+    use crate::tracks::Row;
 
     #[test]
     fn errors_of_two_samples() {

@@ -1,7 +1,8 @@
-//! Evaluation: dataset readers, protocols, metrics and reports.
+//! Evaluation: protocols, metrics and reports.
 //!
 //! ```no_run
-//! use cliff::eval::{dataset::{read_tracks, Format}, evaluate, protocol::Settings, EvalConfig};
+//! use cliff::eval::{evaluate, protocol::Settings, EvalConfig};
+//! use cliff::tracks::{read_tracks, Format};
 //! use cliff::map::CliffMap;
 //! use cliff::predict::{Method, Params};
 //!
@@ -19,8 +20,6 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
-pub mod columns;
-pub mod dataset;
 pub mod metrics;
 pub mod protocol;
 mod report;

@@ -14,9 +14,9 @@ use std::str::FromStr;
 
 use glam::DVec2;
 
-use super::dataset::{Row, Track};
 use crate::motion::{DEFAULT_SIGMA, State, velocity_from_speed_angle};
 use crate::predict::steps_for;
+use crate::tracks::{Row, Track};
 
 /// The two evaluation protocols.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
@@ -423,7 +423,7 @@ mod tests {
 #[cfg(test)]
 mod shipped {
     use super::*;
-    use crate::eval::dataset::{Format, read_tracks};
+    use crate::tracks::{Format, read_tracks};
 
     #[test]
     fn reference_filter_passes_the_published_counts() {

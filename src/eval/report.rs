@@ -10,11 +10,11 @@ use std::path::Path;
 
 use rayon::prelude::*;
 
-use super::dataset::Track;
 use super::metrics::{Scratch, StepErrors, person_errors};
 use super::protocol::{Case, Settings, prepare_all};
 use crate::map::{CliffMap, MapAt};
 use crate::predict::{Method, Options, Params, PredictError, TrajectoryBatch, predict_with};
+use crate::tracks::Track;
 
 /// What to evaluate.
 #[derive(Debug, Clone, PartialEq)]

@@ -17,7 +17,7 @@
 //! `obs` 3.2 s, `dt` 0.4 s, `horizon` 4.8 s.
 //!
 //! ```
-//! use cliff::eval::dataset::{Row, Track};
+//! use cliff::tracks::{Row, Track};
 //! use cliff::eval::protocol::{prepare_all, Protocol, Settings};
 //! use glam::DVec2;
 //! // one person walking east at 1 m/s for 40 s, a row every 0.4 s
@@ -35,8 +35,8 @@
 //! assert!((cases[1].start.time - 11.2).abs() < 1e-9 && cases[1].steps == 12);
 //! ```
 
-use super::dataset::{Row, Track};
 use super::protocol::{Case, Settings, prepare_seconds};
+use crate::tracks::{Row, Track};
 
 /// Seconds from one window's start to the next one's.
 pub fn window_step(s: &Settings) -> f64 {
@@ -246,7 +246,7 @@ mod tests {
 
     #[test]
     fn challenge_windows_on_the_magni_recording() {
-        use crate::eval::columns::{Columns, read_named};
+        use crate::tracks::{Columns, read_named};
         let path = concat!(
             env!("CARGO_MANIFEST_DIR"),
             "/../shared/data/magni/magni-A-first-16min.csv"

@@ -38,7 +38,7 @@
 use std::f32::consts::TAU;
 
 use super::build::Gauss2;
-use crate::predict::f32x4::F32x4;
+use crate::math::f32x4::F32x4;
 
 /// Four components, field by field (two cache lines), and where the location's other
 /// blocks are.

@@ -31,10 +31,10 @@ mod tables;
 pub mod timeofday;
 pub mod update;
 
-use std::f64::consts::TAU;
 use std::path::Path;
 use std::sync::Arc;
 
+use crate::math::wrap_2pi;
 use crate::motion::SpeedPrior;
 use build::{Gauss2, floor_eigenvalues};
 use glam::DVec2;
@@ -60,7 +60,7 @@ pub use update::{OnlineMap, UpdateParams};
 
 /// Largest |x| and |y| (m) of a map location: maps are of buildings and sites, and this
 /// bound keeps every grid computation far from overflow and rounding trouble.
-pub const MAX_COORDINATE: f64 = 1e6;
+pub const MAX_COORDINATE: f64 = crate::tracks::MAX_POSITION;
 /// Smallest grid step (m) a map may have.
 pub const MIN_GRID_STEP: f64 = 1e-3;
 /// Largest grid step (m) a map may have.
@@ -317,7 +317,7 @@ fn follow_cumulative<const W: usize>(
     uy: f32,
     kappa: f32,
 ) -> [f32; W] {
-    use crate::predict::fastmath::exp_neg_f32;
+    use crate::math::fastmath::exp_neg_f32;
     let mut cos = [0.0f32; W];
     let mut most = -1.0f32;
     for (b, out) in blocks.iter().zip(cos.chunks_exact_mut(4)) {
@@ -518,23 +518,6 @@ pub fn clamp_psd(cov: [f64; 4]) -> ([f64; 4], bool) {
     let m = |i: usize, j: usize| l1 * v1[i] * v1[j] + l2 * v2[i] * v2[j];
     let off = m(0, 1);
     ([m(0, 0), off, off, m(1, 1)], true)
-}
-
-/// Wrap an angle to `[0, 2pi)` (NaN stays NaN).
-#[inline]
-pub fn wrap_2pi(a: f64) -> f64 {
-    if a.is_nan() || a.abs() >= 1e15 {
-        // Huge or NaN: the slow, general way.
-        let w = a.rem_euclid(TAU);
-        return if w >= TAU { 0.0 } else { w };
-    }
-    // floor(a / 2pi) by the 1.5 * 2^52 rounding trick: branch-free and no libm call
-    // (directions near 0 cross the wrap half of the time, so a branch would mispredict).
-    const MAGIC: f64 = 6_755_399_441_055_744.0;
-    let n = ((a * (1.0 / TAU) - 0.5) + MAGIC) - MAGIC;
-    let w = a - n * TAU;
-    let w = if w < 0.0 { w + TAU } else { w };
-    if w >= TAU { w - TAU } else { w }
 }
 
 impl CliffMap {
@@ -1021,7 +1004,7 @@ impl CliffMap {
     /// components.
     #[inline]
     pub fn step_log_density(&self, index: usize, ux: f32, uy: f32, rho: f64) -> f64 {
-        let theta = crate::predict::fastmath::atan2_f32(uy, ux);
+        let theta = crate::math::fastmath::atan2_f32(uy, ux);
         self.step_log_density_at(index, theta, rho as f32) as f64
     }
 
@@ -1140,6 +1123,7 @@ fn validate_location(index: usize, loc: &Location) -> Result<(), MapError> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use std::f64::consts::TAU;
 
     fn comp(theta: f64, w: f64) -> Component {
         Component {
@@ -1330,22 +1314,6 @@ mod tests {
         assert!((5000..7500).contains(&wrapped), "{wrapped}");
         let mean = wrap_2pi(s.atan2(co));
         assert!((mean - 0.05).abs() < 0.01, "{mean}");
-    }
-
-    #[test]
-    fn wrap_2pi_handles_every_range() {
-        for (a, w) in [
-            (0.0, 0.0),
-            (-0.5, TAU - 0.5),
-            (TAU, 0.0),
-            (3.0 * TAU + 1.0, 1.0),
-            (-5.0 * TAU - 1.0, TAU - 1.0),
-            (1.0, 1.0),
-        ] {
-            assert!((wrap_2pi(a) - w).abs() < 1e-12, "{a}: {}", wrap_2pi(a));
-        }
-        assert!(wrap_2pi(-1e-300) < TAU && wrap_2pi(-1e-300) >= 0.0);
-        assert!(wrap_2pi(f64::NAN).is_nan());
     }
 
     #[test]

@@ -32,7 +32,7 @@
 //! let walk = |theta: f64| -> Vec<Observation> {
 //!     (0..300).map(|i| Observation {
 //!         position: DVec2::new(-0.9 + 0.006 * i as f64, 0.0),
-//!         theta: cliff::map::wrap_2pi(theta + 0.01 * ((i % 21) as f64 - 10.0)),
+//!         theta: cliff::math::wrap_2pi(theta + 0.01 * ((i % 21) as f64 - 10.0)),
 //!         rho: 1.0 + 0.01 * ((i % 17) as f64 - 8.0),
 //!     }).collect()
 //! };
@@ -52,9 +52,10 @@ use rayon::prelude::*;
 
 use super::build::{
     BuildError, BuildParams, Built, FitParams, Gauss2, Lattice, Observation, build_map,
-    check_observations, eig_sym, fit_mixture, floor_eigenvalues, split, wrap_pi,
+    check_observations, eig_sym, fit_mixture, floor_eigenvalues, split,
 };
-use super::{CliffMap, Component, Location, MapError, wrap_2pi};
+use super::{CliffMap, Component, Location, MapError};
+use crate::math::{wrap_2pi, wrap_pi};
 
 /// Options of online updates.
 #[derive(Debug, Clone, Copy, PartialEq)]

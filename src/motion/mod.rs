@@ -22,7 +22,7 @@
 
 use glam::DVec2;
 
-use crate::map::wrap_2pi;
+use crate::math::wrap_2pi;
 
 mod speed_prior;
 pub use speed_prior::{

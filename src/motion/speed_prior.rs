@@ -27,8 +27,8 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::eval::dataset::Track;
 use crate::eval::protocol::{Case, Protocol, Settings, prepare_all};
+use crate::tracks::Track;
 
 /// The regression of the speed ahead on the observed speed (see the
 /// [module documentation](self)).
@@ -253,7 +253,7 @@ fn case_pairs(case: &Case, horizons: &[f64], line: &mut Line) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::eval::dataset::Row;
+    use crate::tracks::Row;
     use glam::DVec2;
 
     /// A walker at `v_obs` for the first 3.2 s, then `v_after` for 60 s, east.

@@ -131,7 +131,7 @@ impl PlotError {
 /// assert!(r < 60 && g > 150 && b > 150);
 /// ```
 pub fn direction_colour(theta: f64) -> (u8, u8, u8) {
-    let h = crate::map::wrap_2pi(theta) / std::f64::consts::TAU * 6.0;
+    let h = crate::math::wrap_2pi(theta) / std::f64::consts::TAU * 6.0;
     let (s, v) = (0.9, 0.9);
     let c = v * s;
     let x = c * (1.0 - ((h % 2.0) - 1.0).abs());

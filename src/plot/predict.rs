@@ -79,7 +79,7 @@ impl PersonPrediction {
     /// use cliff::map::CliffMap;
     /// use cliff::plot::PersonPrediction;
     /// use cliff::predict::{predict, Params, TrajectoryBatch};
-    /// use cliff::scene::{demo_tracks, SceneOptions};
+    /// use cliff::tracks::scene::{demo_tracks, SceneOptions};
     /// let tracks = demo_tracks(&SceneOptions::default());
     /// let settings = Settings { protocol: Protocol::Seconds, ..Settings::default() };
     /// let case = prepare(&tracks[0], &settings).unwrap();

@@ -25,8 +25,6 @@
 //! ```
 
 mod batch;
-pub(crate) mod f32x4;
-pub(crate) mod fastmath;
 mod options;
 pub mod preset;
 mod rollout;

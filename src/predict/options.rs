@@ -524,8 +524,8 @@ mod tests {
 
     #[test]
     fn scores_rank_real_predictions_as_the_maps_density_does() {
-        use crate::eval::dataset::{Format, read_tracks};
         use crate::eval::protocol::{Protocol, Settings, prepare};
+        use crate::tracks::{Format, read_tracks};
         let data = concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/data/");
         let atc = Settings {
             protocol: Protocol::Seconds,

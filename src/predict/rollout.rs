@@ -15,8 +15,10 @@ use rand::SeedableRng;
 use rand_xoshiro::Xoshiro256PlusPlus;
 
 use super::options::{NO_LOCATION_LOG_DENSITY, Options};
-use super::{BatchMut, HeadingRule, Method, Params, Point, PredictError, fastmath, preset};
-use crate::map::{CliffMap, FollowWeights, Lookup, wrap_2pi};
+use super::{BatchMut, HeadingRule, Method, Params, Point, PredictError, preset};
+use crate::map::{CliffMap, FollowWeights, Lookup};
+use crate::math::fastmath;
+use crate::math::wrap_2pi;
 use crate::motion::{SpeedPrior, State};
 
 /// Which neighbour-table path a [`Rollout`] takes for CLiFF-LHMP map lookups.
@@ -782,8 +784,8 @@ mod tests {
     use crate::predict::{TrajectoryBatch, predict_with};
 
     fn thor_agents() -> (CliffMap, Vec<State>) {
-        use crate::eval::dataset::{Format, read_tracks};
         use crate::eval::protocol::{Settings, prepare};
+        use crate::tracks::{Format, read_tracks};
         let data = concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/data/thor1/");
         let map = CliffMap::load(format!("{data}cliffmap.csv")).unwrap();
         let tracks = read_tracks(

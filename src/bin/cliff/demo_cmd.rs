@@ -5,16 +5,16 @@ use std::time::Instant;
 
 use anyhow::{Context, Result, bail};
 use clap::Args;
-use cliff::eval::dataset::Format;
 use cliff::eval::protocol::{Case, prepare};
 use cliff::eval::{EvalConfig, evaluate, summary_table, write_reports};
-use cliff::map::wrap_2pi;
+use cliff::math::wrap_2pi;
 use cliff::plot::{
     CurveRun, CurvesStyle, MapStyle, PersonPrediction, PredictStyle, plot_curves, plot_map,
     plot_predictions,
 };
 use cliff::predict::{Method, TrajectoryBatch};
-use cliff::scene::{SceneOptions, demo_tracks, tracks_csv};
+use cliff::tracks::Format;
+use cliff::tracks::scene::{SceneOptions, demo_tracks, tracks_csv};
 
 use crate::eval_cmd::{PredictionArgs, load_tracks, predict_case};
 use crate::map_cmd::load_map;

@@ -6,8 +6,6 @@ use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result, bail};
 use clap::Args;
-use cliff::eval::columns::{Columns, read_many_as};
-use cliff::eval::dataset::{Format, Track, keep_time_range};
 use cliff::eval::protocol::{Case, Protocol, Settings, prepare};
 use cliff::eval::{
     EvalConfig, evaluate, person_seed, summary_table, table_horizons, write_reports,
@@ -15,6 +13,8 @@ use cliff::eval::{
 use cliff::map::CliffMap;
 use cliff::map::timeofday::slice_label;
 use cliff::predict::{HeadingRule, Method, Options, Params, TrajectoryBatch, predict_with};
+use cliff::tracks::{Columns, read_many_as};
+use cliff::tracks::{Format, Track, keep_time_range};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 
 use crate::clock;

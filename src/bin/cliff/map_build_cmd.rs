@@ -5,7 +5,6 @@ use std::time::Instant;
 
 use anyhow::{Context, Result, bail};
 use clap::Args;
-use cliff::eval::dataset::{Format, Track};
 use cliff::map::CliffMap;
 use cliff::map::build::{
     BuildParams, EmParams, FitParams, MeanShift, Observation, build_map_with_progress,
@@ -16,6 +15,7 @@ use cliff::map::timeofday::build_map_set_with_progress;
 use cliff::map::update::{OnlineMap, UpdateParams};
 use cliff::map::{MapFormat, SliceParams, Smoothing};
 use cliff::motion::SpeedPrior;
+use cliff::tracks::{Format, Track};
 use indicatif::{ProgressBar, ProgressStyle};
 
 use crate::clock;

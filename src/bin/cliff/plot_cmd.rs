@@ -4,14 +4,14 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, bail};
 use clap::{Args, Subcommand};
-use cliff::eval::dataset::{Format, Track};
 use cliff::eval::protocol::prepare;
 use cliff::plot::{
     CurveRun, CurvesStyle, Extent, Floorplan, MapStyle, PersonPrediction, PredictStyle, SummaryRow,
     plot_curves, plot_map, plot_predictions, read_per_person_spread, read_summary,
 };
 use cliff::predict::{Method, TrajectoryBatch};
-use cliff::scene::{SceneOptions, demo_tracks};
+use cliff::tracks::scene::{SceneOptions, demo_tracks};
+use cliff::tracks::{Format, Track};
 
 use crate::eval_cmd::{PredictionArgs, load_tracks, predict_case};
 use crate::map_cmd::load_map;

@@ -4,7 +4,7 @@
 use std::f64::consts::{PI, TAU};
 
 use super::stats::{Gauss2, eig_sym};
-use crate::map::wrap_2pi;
+use crate::math::wrap_2pi;
 
 /// Stopping rules of EM.
 #[derive(Debug, Clone, Copy, PartialEq)]

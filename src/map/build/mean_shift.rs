@@ -22,8 +22,8 @@
 
 use std::f64::consts::{PI, TAU};
 
-use super::stats::wrap_pi;
-use crate::map::wrap_2pi;
+use crate::math::wrap_2pi;
+use crate::math::wrap_pi;
 
 /// How mean shift sums its kernel.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -13,7 +13,7 @@
 //! let obs: Vec<Observation> = (0..200)
 //!     .map(|i| Observation {
 //!         position: DVec2::new(-0.9 + 0.009 * i as f64, 0.1 * ((i % 5) as f64 - 2.0)),
-//!         theta: cliff::map::wrap_2pi(0.05 * ((i * 7 % 11) as f64 - 5.0)),
+//!         theta: cliff::math::wrap_2pi(0.05 * ((i * 7 % 11) as f64 - 5.0)),
 //!         rho: 1.2 + 0.02 * ((i * 3 % 13) as f64 - 6.0),
 //!     })
 //!     .collect();
@@ -31,10 +31,11 @@ use rayon::prelude::*;
 
 pub use em::{EmComponent, EmOutcome, EmParams, em};
 pub use mean_shift::{Bandwidth, Centre, MeanShift, Seekers, group, seek_modes};
-pub use stats::{CircularLinearStats, Gauss2, eig_sym, floor_eigenvalues, log_sum_exp, wrap_pi};
+pub use stats::{CircularLinearStats, Gauss2, eig_sym, floor_eigenvalues, log_sum_exp};
 
-use super::{CliffMap, Component, Location, MapError, wrap_2pi};
-use crate::eval::dataset::Track;
+use super::{CliffMap, Component, Location, MapError};
+use crate::math::wrap_2pi;
+use crate::tracks::Track;
 
 /// One velocity observation: where, which direction, how fast.
 #[derive(Debug, Clone, Copy, PartialEq)]

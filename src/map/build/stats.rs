@@ -1,14 +1,9 @@
 //! Circular-linear statistics of a set of (direction, speed) samples (section 2 of
 //! `cliffmap-building.md`) and small 2x2 helpers shared by mean shift, EM and updates.
 
-use std::f64::consts::{PI, TAU};
+use std::f64::consts::TAU;
 
-/// Wrap an angle difference to `[-pi, pi)`.
-#[inline]
-pub fn wrap_pi(a: f64) -> f64 {
-    let w = (a + PI).rem_euclid(TAU) - PI;
-    if w >= PI { -PI } else { w }
-}
+use crate::math::wrap_pi;
 
 /// Circular-linear statistics of a sample set.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -42,7 +37,7 @@ impl CircularLinearStats {
         let nf = n as f64;
         let (ms, mc) = (s / nf, c / nf);
         let resultant = ms.hypot(mc);
-        let mean_theta = super::super::wrap_2pi(ms.atan2(mc));
+        let mean_theta = crate::math::wrap_2pi(ms.atan2(mc));
         let mean_rho = r / nf;
         let (mut vr, mut cross) = (0.0, 0.0);
         for x in samples {
@@ -170,14 +165,6 @@ pub fn log_sum_exp(v: &[f64]) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn wrap_pi_range() {
-        assert!((wrap_pi(TAU - 0.1) + 0.1).abs() < 1e-12);
-        assert!((wrap_pi(0.1 - TAU) - 0.1).abs() < 1e-12);
-        assert_eq!(wrap_pi(PI), -PI);
-        assert!((wrap_pi(3.0 * TAU + 0.5) - 0.5).abs() < 1e-12);
-    }
 
     #[test]
     fn stats_across_zero() {

@@ -10,7 +10,8 @@ use crate::map::build::{
     BuildError, BuildParams, Built, Observation, build_map_with_progress, check_observations,
 };
 use crate::map::update::{cap_components, merge_near_duplicates};
-use crate::map::{CliffMap, Component, Location, wrap_2pi};
+use crate::map::{CliffMap, Component, Location};
+use crate::math::wrap_2pi;
 
 /// Options of [`build_map_set`] beyond those of every map.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -92,7 +93,8 @@ const MIN_WEIGHT: f64 = 1e-3;
 ///
 /// ```
 /// use cliff::map::build::{BuildParams, Observation};
-/// use cliff::map::{SliceParams, build_map_set, wrap_2pi};
+/// use cliff::map::{SliceParams, build_map_set};
+/// use cliff::math::wrap_2pi;
 /// use glam::DVec2;
 /// // People walk east through (0, 0) from 08:00 to 12:00 and west from 12:00 to 16:00.
 /// let (mut obs, mut times) = (Vec::new(), Vec::new());

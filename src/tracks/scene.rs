@@ -12,7 +12,7 @@
 //! The same options give the same tracks, on every machine.
 //!
 //! ```
-//! use cliff::scene::{demo_tracks, SceneOptions};
+//! use cliff::tracks::scene::{demo_tracks, SceneOptions};
 //! let tracks = demo_tracks(&SceneOptions::default());
 //! assert_eq!(tracks.len(), SceneOptions::default().people);
 //! let first = &tracks[0];
@@ -32,7 +32,7 @@ use rand::{RngExt, SeedableRng};
 use rand_distr::{Distribution, Normal};
 use rand_xoshiro::Xoshiro256PlusPlus;
 
-use crate::eval::dataset::{Row, Track};
+use super::track::{Row, Track};
 
 /// Half the hall's length along x (m).
 pub const HALL_HALF_LENGTH: f64 = 15.0;
@@ -222,12 +222,12 @@ pub fn demo_tracks(options: &SceneOptions) -> Vec<Track> {
 
 /// Tracks as THÖR-format CSV text (no header; `time, person_id, x, y, speed,
 /// motion_angle`; rows in time order), readable by
-/// [`read_tracks`](crate::eval::dataset::read_tracks) with
-/// [`Format::Thor`](crate::eval::dataset::Format::Thor).
+/// [`read_tracks`](crate::tracks::read_tracks) with
+/// [`Format::Thor`](crate::tracks::Format::Thor).
 ///
 /// ```
-/// use cliff::eval::dataset::{parse_tracks, Format};
-/// use cliff::scene::{demo_tracks, tracks_csv, SceneOptions};
+/// use cliff::tracks::{parse_tracks, Format};
+/// use cliff::tracks::scene::{demo_tracks, tracks_csv, SceneOptions};
 /// let tracks = demo_tracks(&SceneOptions { people: 3, ..SceneOptions::default() });
 /// let back = parse_tracks(&tracks_csv(&tracks), "demo.csv", Format::Thor).unwrap();
 /// assert_eq!(back.len(), 3);

@@ -11,7 +11,7 @@
 //!    them (the agent's first row takes the difference to its second).
 //!
 //! Every value is bounded as in the THÖR and ATC readers
-//! ([`super::dataset::parse_tracks`]), the speeds found by 2. and 3. included: a speed
+//! ([`parse_tracks`](super::read::parse_tracks)), the speeds found by 2. and 3. included: a speed
 //! above [`MAX_SPEED`] (two rows a microsecond apart and a metre away, say) is an error
 //! at its line.
 //!
@@ -23,7 +23,7 @@
 //! tracks of a file share a number.
 //!
 //! ```
-//! use cliff::eval::columns::{Columns, parse_named};
+//! use cliff::tracks::{Columns, parse_named};
 //! let text = "Time,ag_id,x,y,speed,x_speed,y_speed\n\
 //!             0.0,Helmet_2,1.0,2.0,1.0,1.0,0.0\n\
 //!             0.4,Helmet_2,1.4,2.0,1.0,1.0,0.0\n";
@@ -40,9 +40,7 @@ use std::str::FromStr;
 
 use glam::DVec2;
 
-use super::dataset::{
-    DatasetError, Format, MAX_ANGLE, MAX_POSITION, MAX_SPEED, MAX_TIME, Row, Track, read_many,
-};
+use super::track::{DatasetError, MAX_ANGLE, MAX_POSITION, MAX_SPEED, MAX_TIME, Row, Track};
 
 /// Which header column holds each field. Optional fields may be left out (see the
 /// module documentation for how the velocity is found).
@@ -204,32 +202,6 @@ pub fn read_many_named(
         all.extend(read_named(p.as_ref(), columns)?.tracks);
     }
     Ok(all)
-}
-
-/// Read and concatenate the tracks of several files in `format`; `columns`, when given,
-/// names the columns of a [`Format::Csv`] or [`Format::Magni`] file (and is an error
-/// with the headerless formats).
-pub fn read_many_as(
-    paths: &[impl AsRef<Path>],
-    format: Format,
-    columns: Option<&Columns>,
-) -> Result<Vec<Track>, ReadError> {
-    match (format, columns) {
-        (Format::Csv | Format::Magni, Some(c)) => Ok(read_many_named(paths, c)?),
-        (Format::Thor | Format::Atc, Some(_)) => Err(ReadError::ColumnsWithoutHeader(format)),
-        (_, None) => Ok(read_many(paths, format)?),
-    }
-}
-
-/// Errors of [`read_many_as`].
-#[derive(Debug, thiserror::Error)]
-pub enum ReadError {
-    /// The file could not be read or parsed.
-    #[error(transparent)]
-    Dataset(#[from] DatasetError),
-    /// A column mapping was given for a format without a header row.
-    #[error("a column mapping needs a file with a header row (format csv or magni), not {0}")]
-    ColumnsWithoutHeader(Format),
 }
 
 /// Parse named-column CSV text; `file` names the source in errors.

@@ -1,0 +1,46 @@
+//! The trajectory file formats: [`Format`], parsed from and shown as the names the
+//! command line takes (`thor`, `atc`, `magni`, `csv`).
+
+use std::fmt;
+use std::str::FromStr;
+
+/// Trajectory file formats.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Format {
+    /// THÖR: `time, person_id, x, y, speed, motion_angle`, 2.5 Hz.
+    Thor,
+    /// ATC: `unix_time, person_id, x, y, speed, motion_angle`, 1 Hz.
+    Atc,
+    /// THÖR-MAGNI: a header row, columns by name
+    /// ([`Columns::magni`](super::columns::Columns::magni)).
+    Magni,
+    /// A CSV with a header row and named columns; without a mapping
+    /// ([`super::columns`]) the columns `t, id, x, y`.
+    Csv,
+}
+
+impl FromStr for Format {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s.trim().to_ascii_lowercase().as_str() {
+            "thor" => Ok(Format::Thor),
+            "atc" => Ok(Format::Atc),
+            "magni" | "thor-magni" => Ok(Format::Magni),
+            "csv" => Ok(Format::Csv),
+            other => Err(format!(
+                "unknown track format '{other}' (expected thor, atc, magni or csv)"
+            )),
+        }
+    }
+}
+
+impl fmt::Display for Format {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            Format::Thor => "thor",
+            Format::Atc => "atc",
+            Format::Magni => "magni",
+            Format::Csv => "csv",
+        })
+    }
+}

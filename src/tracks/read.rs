@@ -1,0 +1,192 @@
+//! Reading trajectory files of every [`Format`]: one entry point per source (a path,
+//! bytes, text, several paths) that hands each format to its reader.
+//!
+//! ```
+//! use cliff::tracks::{parse_tracks, Format};
+//! let text = "0.0,7,1.0,2.0,1.2,0.5\n0.4,7,1.4,2.2,1.1,0.4\n";
+//! let tracks = parse_tracks(text, "inline.csv", Format::Thor).unwrap();
+//! assert_eq!(tracks[0].id, 7);
+//! assert_eq!(tracks[0].rows.len(), 2);
+//! ```
+
+use std::path::Path;
+
+use super::columns::{Columns, parse_named, read_many_named};
+use super::format::Format;
+use super::six_columns::parse_six_columns;
+use super::track::{DatasetError, MAX_TRACK_FILE_BYTES, Track};
+use crate::bounded_read::{line_column, read_at_most};
+
+/// Read the tracks of one file.
+///
+/// Files larger than [`MAX_TRACK_FILE_BYTES`] are refused before they are read; the
+/// rows are then checked as [`parse_tracks`] describes.
+pub fn read_tracks(path: &Path, format: Format) -> Result<Vec<Track>, DatasetError> {
+    let file = path.display().to_string();
+    let bytes = read_at_most(path, MAX_TRACK_FILE_BYTES).map_err(|source| DatasetError::Io {
+        file: file.clone(),
+        source,
+    })?;
+    parse_track_bytes(&bytes, &file, format)
+}
+
+/// Parse trajectory bytes (UTF-8 text; anything else is an error at its line and
+/// column); `file` names the source in errors.
+pub fn parse_track_bytes(
+    bytes: &[u8],
+    file: &str,
+    format: Format,
+) -> Result<Vec<Track>, DatasetError> {
+    match std::str::from_utf8(bytes) {
+        Ok(text) => parse_tracks(text, file, format),
+        Err(e) => {
+            let (line, column) = line_column(bytes, e.valid_up_to());
+            Err(DatasetError::Parse {
+                file: file.to_string(),
+                line,
+                column,
+                message: "not UTF-8 text".into(),
+            })
+        }
+    }
+}
+
+/// Read and concatenate the tracks of several files (a person id seen in two files
+/// becomes two tracks).
+pub fn read_many(paths: &[impl AsRef<Path>], format: Format) -> Result<Vec<Track>, DatasetError> {
+    let mut all = Vec::new();
+    for p in paths {
+        all.extend(read_tracks(p.as_ref(), format)?);
+    }
+    Ok(all)
+}
+
+/// Parse trajectory text; `file` names the source in errors.
+///
+/// Every value must be a finite number within its bound: |time| <= [`MAX_TIME`],
+/// |x|, |y| <= [`MAX_POSITION`], 0 <= speed <= [`MAX_SPEED`],
+/// |angle| <= [`MAX_ANGLE`]; a person id is a whole number in `0..2^64`; a person's
+/// times strictly increase. Memory grows with the rows read, never with a value.
+pub fn parse_tracks(text: &str, file: &str, format: Format) -> Result<Vec<Track>, DatasetError> {
+    match format {
+        Format::Thor | Format::Atc => parse_six_columns(text, file),
+        Format::Magni => Ok(parse_named(text, file, &Columns::magni())?.tracks),
+        Format::Csv => Ok(parse_named(text, file, &Columns::default())?.tracks),
+    }
+}
+
+/// Read and concatenate the tracks of several files in `format`; `columns`, when given,
+/// names the columns of a [`Format::Csv`] or [`Format::Magni`] file (and is an error
+/// with the headerless formats).
+pub fn read_many_as(
+    paths: &[impl AsRef<Path>],
+    format: Format,
+    columns: Option<&Columns>,
+) -> Result<Vec<Track>, ReadError> {
+    match (format, columns) {
+        (Format::Csv | Format::Magni, Some(c)) => Ok(read_many_named(paths, c)?),
+        (Format::Thor | Format::Atc, Some(_)) => Err(ReadError::ColumnsWithoutHeader(format)),
+        (_, None) => Ok(read_many(paths, format)?),
+    }
+}
+
+/// Errors of [`read_many_as`].
+#[derive(Debug, thiserror::Error)]
+pub enum ReadError {
+    /// The file could not be read or parsed.
+    #[error(transparent)]
+    Dataset(#[from] DatasetError),
+    /// A column mapping was given for a format without a header row.
+    #[error("a column mapping needs a file with a header row (format csv or magni), not {0}")]
+    ColumnsWithoutHeader(Format),
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn e(text: &str) -> String {
+        parse_tracks(text, "t.csv", Format::Thor)
+            .unwrap_err()
+            .to_string()
+    }
+
+    #[test]
+    fn groups_by_person_in_order() {
+        let t = parse_tracks("0,2,0,0,1,0\n0,1,5,5,1,0\n1,2,1,0,1,0\n", "t", Format::Atc).unwrap();
+        assert_eq!(
+            t.iter().map(|t| (t.id, t.rows.len())).collect::<Vec<_>>(),
+            vec![(2, 2), (1, 1)]
+        );
+    }
+
+    #[test]
+    fn errors_name_file_line_column() {
+        assert!(e("0,1,0,0,1\n").contains("t.csv:1: column 0: expected 6 columns"));
+        assert!(e("0,1,0,0,1,0\n1,1,x,0,1,0\n").contains("t.csv:2: column 3: 'x' is not a number"));
+        assert!(e("0,1,0,inf,1,0\n").contains("column 4: 'inf' is not finite"));
+        assert!(e("0,1,0,0,-1,0\n").contains("column 5: negative speed"));
+        assert!(e("0,-3,0,0,1,0\n").contains("column 2: person id"));
+        assert!(
+            e("1,1,0,0,1,0\n1,1,0,0,1,0\n")
+                .contains("t.csv:2: column 1: time 1 of person 1 does not increase")
+        );
+    }
+
+    #[test]
+    fn absurd_values_lines_and_bytes_are_errors_with_line_and_column() {
+        assert!(e("1e300,1,0,0,1,0\n").contains("t.csv:1: column 1: time 1e300 is beyond"));
+        assert!(e("0,1,0,0,1,0\n1,1,1e7,0,1,0\n").contains("t.csv:2: column 3: coordinate"));
+        assert!(e("0,1,0,-2e6,1,0\n").contains("column 4: coordinate"));
+        assert!(e("0,1,0,0,2e6,0\n").contains("column 5: speed 2000000.0 is beyond 1000000"));
+        assert!(e("0,1,0,0,1,-1e4\n").contains("column 6: motion angle"));
+        assert!(e("0,1.5,0,0,1,0\n").contains("column 2: person id '1.5'"));
+        assert!(e("0,1e300,0,0,1,0\n").contains("column 2: person id"));
+        // a line of a million columns: counted, not collected
+        let long = format!("0,1,0,0,1,0{}\n", ",".repeat(1_000_000));
+        assert!(e(&long).contains(
+            "expected 6 columns (time, person_id, x, y, speed, motion_angle), found 1000006"
+        ));
+        let err = parse_track_bytes(b"0,1,0,0,1,0\n1,1,\xc3(,0,1,0\n", "t.csv", Format::Atc)
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("t.csv:2: column 5: not UTF-8"), "{err}");
+        // the bounds themselves are accepted; an id as a whole float is read
+        let t = parse_tracks(
+            "-1e11,7e0,1e6,-1e6,1e6,1000\n1e11,7,0,0,0,-1000\n",
+            "t",
+            Format::Thor,
+        )
+        .unwrap();
+        assert_eq!((t.len(), t[0].id, t[0].rows.len()), (1, 7, 2));
+    }
+
+    #[test]
+    fn refuses_files_over_the_size_limit_before_reading() {
+        // a sparse file of 1 GiB + 1 byte costs no disk
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("huge.csv");
+        let f = std::fs::File::create(&path).unwrap();
+        f.set_len(MAX_TRACK_FILE_BYTES + 1).unwrap();
+        let err = read_tracks(&path, Format::Atc).unwrap_err().to_string();
+        assert!(
+            err.contains("huge.csv") && err.contains("larger than 1073741824 bytes"),
+            "{err}"
+        );
+    }
+
+    #[test]
+    fn reads_the_shipped_files() {
+        let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/data");
+        let t = read_tracks(&Path::new(dir).join("thor1/exp-1-run-2.csv"), Format::Thor).unwrap();
+        assert_eq!(t.len(), 87);
+        let t = read_tracks(&Path::new(dir).join("thor3/exp-3-run-2.csv"), Format::Thor).unwrap();
+        assert_eq!(t.len(), 126);
+        let t = read_tracks(
+            &Path::new(dir).join("atc/dev/atc-1024-13_test.csv"),
+            Format::Atc,
+        )
+        .unwrap();
+        assert_eq!(t.iter().map(|t| t.rows.len()).sum::<usize>(), 7973);
+    }
+}
