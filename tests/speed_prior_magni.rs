@@ -8,7 +8,8 @@
 use std::collections::BTreeMap;
 use std::path::Path;
 
-use cliff::motion::{FIT_HORIZONS, FIT_WINDOW_EVERY, MIN_PAIRS, SpeedPrior};
+use cliff::eval::speed_prior_fit::{FIT_HORIZONS, FIT_WINDOW_EVERY, MIN_PAIRS};
+use cliff::motion::SpeedPrior;
 use cliff::tracks::{Format, keep_time_range, read_tracks};
 
 const FILE: &str = "../shared/data/magni/magni-A-first-16min.csv";

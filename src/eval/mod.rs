@@ -23,6 +23,7 @@
 pub mod metrics;
 pub mod protocol;
 mod report;
+pub mod speed_prior_fit;
 pub mod windows;
 
 pub use report::{

@@ -24,10 +24,8 @@ use glam::DVec2;
 
 use crate::math::wrap_2pi;
 
-mod speed_prior;
-pub use speed_prior::{
-    FIT_HORIZONS, FIT_WINDOW_EVERY, MAX_PRIOR_SPEED, MIN_PAIRS, SHORT_FIT_HORIZONS, SpeedPrior,
-};
+pub mod speed_prior;
+pub use speed_prior::{MAX_PRIOR_SPEED, SpeedPrior};
 
 /// The reference's velocity kernel width.
 pub const DEFAULT_SIGMA: f64 = 1.5;

@@ -259,7 +259,7 @@ fn print_speed_prior(a: &BuildArgs, prior: Option<SpeedPrior>) {
         None if a.no_speed_prior => println!("speed prior         none (--no-speed-prior)"),
         None => println!(
             "speed prior         none (fewer than {} pairs of start speed and speed 4-50 s ahead, from people or windows along the tracks)",
-            cliff::motion::MIN_PAIRS
+            cliff::eval::speed_prior_fit::MIN_PAIRS
         ),
     }
 }
