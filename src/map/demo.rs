@@ -67,3 +67,57 @@ pub(super) fn demo_map() -> CliffMap {
     }
     CliffMap::with_grid_step(locations, Some(1.0)).expect("the demo scene is a valid map")
 }
+
+#[cfg(test)]
+mod tests {
+    use std::f64::consts::PI;
+
+    use super::*;
+    use crate::tracks::scene::{SceneOptions, demo_tracks};
+
+    /// The synthetic people of the demo scene walk where the demo map has flow.
+    #[test]
+    fn people_walk_in_the_corridors_and_some_turn() {
+        let opts = SceneOptions {
+            people: 200,
+            ..SceneOptions::default()
+        };
+        let tracks = demo_tracks(&opts);
+        let map = CliffMap::demo();
+        let mut turned = 0;
+        for t in &tracks {
+            assert!(
+                t.rows.len() >= 15,
+                "person {} has {} rows",
+                t.id,
+                t.rows.len()
+            );
+            for r in &t.rows {
+                // inside a corridor (half width 3 m, plus the walkers' wobble)
+                assert!(
+                    r.position.x.abs() < 3.5 || r.position.y.abs() < 3.5,
+                    "person {} off the corridors at {}",
+                    t.id,
+                    r.position
+                );
+                // the map has a location near every row
+                assert!(map.nearest(r.position, 1.0).is_some());
+                assert!(r.speed > 0.3 && r.speed < 2.3);
+                assert!(r.angle > -PI && r.angle <= PI);
+            }
+            let a = t.rows[1].angle;
+            let b = t.rows[t.rows.len() - 1].angle;
+            if crate::math::wrap_pi(b - a).abs() > 1.0 {
+                turned += 1;
+            }
+            // times increase by dt
+            assert!(
+                t.rows
+                    .windows(2)
+                    .all(|w| (w[1].t - w[0].t - 0.4).abs() < 1e-9)
+            );
+        }
+        let share = turned as f64 / tracks.len() as f64;
+        assert!((0.2..0.5).contains(&share), "turning share {share}");
+    }
+}

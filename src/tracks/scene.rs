@@ -253,7 +253,6 @@ pub fn tracks_csv(tracks: &[Track]) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::map::CliffMap;
 
     #[test]
     fn same_options_same_tracks_other_seed_other_tracks() {
@@ -265,51 +264,6 @@ mod tests {
         });
         assert_eq!(a, b);
         assert_ne!(a, c);
-    }
-
-    #[test]
-    fn people_walk_in_the_corridors_and_some_turn() {
-        let opts = SceneOptions {
-            people: 200,
-            ..SceneOptions::default()
-        };
-        let tracks = demo_tracks(&opts);
-        let map = CliffMap::demo();
-        let mut turned = 0;
-        for t in &tracks {
-            assert!(
-                t.rows.len() >= 15,
-                "person {} has {} rows",
-                t.id,
-                t.rows.len()
-            );
-            for r in &t.rows {
-                // inside a corridor (half width 3 m, plus the walkers' wobble)
-                assert!(
-                    r.position.x.abs() < 3.5 || r.position.y.abs() < 3.5,
-                    "person {} off the corridors at {}",
-                    t.id,
-                    r.position
-                );
-                // the map has a location near every row
-                assert!(map.nearest(r.position, 1.0).is_some());
-                assert!(r.speed > 0.3 && r.speed < 2.3);
-                assert!(r.angle > -PI && r.angle <= PI);
-            }
-            let a = t.rows[1].angle;
-            let b = t.rows[t.rows.len() - 1].angle;
-            if wrap_pi(b - a).abs() > 1.0 {
-                turned += 1;
-            }
-            // times increase by dt
-            assert!(
-                t.rows
-                    .windows(2)
-                    .all(|w| (w[1].t - w[0].t - 0.4).abs() < 1e-9)
-            );
-        }
-        let share = turned as f64 / tracks.len() as f64;
-        assert!((0.2..0.5).contains(&share), "turning share {share}");
     }
 
     #[test]

@@ -3,9 +3,9 @@
 use std::collections::{BTreeSet, HashMap};
 use std::sync::Arc;
 
-use super::{
-    DAY_SECONDS, MapSet, SetParts, Smoothing, check_clock_offset, slice_count, slice_label,
-};
+use super::clock::{DAY_SECONDS, check_clock_offset, slice_count, slice_label};
+use super::set::{MapSet, SetParts};
+use super::smoothing::Smoothing;
 use crate::map::build::{
     BuildError, BuildParams, Built, Observation, build_map_with_progress, check_observations,
 };

@@ -1,0 +1,42 @@
+//! [`MapAt`]: anything that gives the map for a moment, a single map or a set.
+
+use std::sync::Arc;
+
+use super::set::MapSet;
+use crate::map::CliffMap;
+
+/// Anything that gives the map for a moment: a single [`CliffMap`] (always itself) or
+/// a [`MapSet`] (the map of the time's slice). Evaluation takes one, so that every
+/// person is predicted with the map of their observation time.
+pub trait MapAt {
+    /// The map for the timestamp `time` (s, the clock of the data).
+    fn map_at(&self, time: f64) -> &CliffMap;
+}
+
+impl MapAt for CliffMap {
+    #[inline]
+    fn map_at(&self, _time: f64) -> &CliffMap {
+        self
+    }
+}
+
+impl MapAt for MapSet {
+    #[inline]
+    fn map_at(&self, time: f64) -> &CliffMap {
+        self.at(time)
+    }
+}
+
+impl<T: MapAt + ?Sized> MapAt for Arc<T> {
+    #[inline]
+    fn map_at(&self, time: f64) -> &CliffMap {
+        (**self).map_at(time)
+    }
+}
+
+impl<T: MapAt + ?Sized> MapAt for &T {
+    #[inline]
+    fn map_at(&self, time: f64) -> &CliffMap {
+        (**self).map_at(time)
+    }
+}

@@ -1,0 +1,264 @@
+//! The rollout driven in chunks and by several callers: the same bytes and scores as
+//! one call, on the THÖR1 people.
+
+use cliff::map::CliffMap;
+use cliff::motion::State;
+use cliff::predict::*;
+
+fn thor_agents() -> (CliffMap, Vec<State>) {
+    use cliff::eval::protocol::{Settings, prepare};
+    use cliff::tracks::{Format, read_tracks};
+    let data = concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/data/thor1/");
+    let map = CliffMap::load(format!("{data}cliffmap.csv")).unwrap();
+    let tracks = read_tracks(
+        std::path::Path::new(&format!("{data}exp-1-run-2.csv")),
+        Format::Thor,
+    )
+    .unwrap();
+    let agents = tracks
+        .iter()
+        .filter_map(|t| prepare(t, &Settings::default()))
+        .map(|c| c.start)
+        .take(9)
+        .collect();
+    (map, agents)
+}
+
+#[test]
+fn chunks_give_the_bytes_and_scores_of_one_call() {
+    let (map, agents) = thor_agents();
+    assert_eq!(agents.len(), 9);
+    let n = agents.len();
+    for (method, k) in [(Method::Cliff, 7), (Method::Cliff, 23), (Method::Cvm, 2)] {
+        let params = Params {
+            method,
+            k,
+            seed: 3,
+            ..Params::default()
+        };
+        for options in [
+            Options::default(),
+            Options {
+                scores: true,
+                ..Options::default()
+            },
+            Options {
+                speed_beta: 2.0,
+                coast: 2.0,
+                scores: true,
+                ..Options::default()
+            },
+            Options {
+                follow: 4.0,
+                candidates: 3,
+                scores: true,
+                ..Options::default()
+            },
+        ] {
+            let mut whole = TrajectoryBatch::new();
+            predict_with(&map, &agents, &params, &options, &mut whole).unwrap();
+            assert_eq!(whole.scores().len(), if options.scores { n * k } else { 0 });
+            for cuts in [&[4usize][..], &[1, 2, 8], &[0, 5, 5]] {
+                let mut pieces = TrajectoryBatch::new();
+                pieces.reshape(n, k, params.steps());
+                let mut scores = vec![-1.0f32; n * k];
+                let mut rollout = Rollout::new(&params)
+                    .unwrap()
+                    .with_options(options)
+                    .unwrap()
+                    .with_tables(Tables::CachedOnly);
+                let out = pieces.as_mut();
+                let (mut positions, mut lens, mut sc) = (out.positions, out.lens, &mut scores[..]);
+                let mut from = 0;
+                for &to in cuts.iter().chain([&n]) {
+                    let m = to - from;
+                    let (p, rest_p) = positions.split_at_mut(m * k * params.steps());
+                    let (l, rest_l) = lens.split_at_mut(m * k);
+                    let (s, rest_s) = sc.split_at_mut(m * k);
+                    rollout
+                        .predict_agents(
+                            &map,
+                            &agents[from..to],
+                            BatchMut {
+                                positions: p,
+                                lens: l,
+                            },
+                            Some(s),
+                        )
+                        .unwrap();
+                    (positions, lens, sc) = (rest_p, rest_l, rest_s);
+                    from = to;
+                }
+                let what = format!("{method:?} k {k} {options:?} cuts {cuts:?}");
+                assert_eq!(whole.positions().len(), pieces.positions().len());
+                assert!(
+                    whole
+                        .positions()
+                        .iter()
+                        .zip(pieces.positions())
+                        .all(|(a, b)| a.map(f32::to_bits) == b.map(f32::to_bits)),
+                    "{what}"
+                );
+                assert_eq!(whole.lens(), pieces.lens(), "{what}");
+                if options.scores {
+                    assert_eq!(whole.scores(), &scores[..], "{what}");
+                    assert!(scores.iter().all(|s| s.is_finite()), "{what}");
+                } else {
+                    // a score buffer without scores asked for: NaN
+                    assert!(scores.iter().all(|s| s.is_nan()), "{what}");
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn a_restarted_rollout_predicts_as_a_new_one() {
+    let (map, agents) = thor_agents();
+    let n = agents.len();
+    let first = Params {
+        k: 6,
+        seed: 1,
+        ..Params::default()
+    };
+    let improved = Params {
+        method: Method::Improved,
+        k: 5,
+        seed: 8,
+        ..Params::default()
+    };
+    let asked = [
+        (first, Options::default()),
+        (
+            improved,
+            Options {
+                coast: 3.0,
+                ..Options::default()
+            },
+        ),
+        (
+            Params {
+                method: Method::Cliff,
+                ..improved
+            },
+            Options {
+                speed_beta: 2.0,
+                candidates: 4,
+                scores: true,
+                ..Options::default()
+            },
+        ),
+    ];
+    let mut rollout = Rollout::new(&first)
+        .unwrap()
+        .with_tables(Tables::CachedOnly);
+    for (params, options) in asked {
+        rollout.restart(&params, options).unwrap();
+        let mut whole = TrajectoryBatch::new();
+        predict_with(&map, &agents, &params, &options, &mut whole).unwrap();
+        let mut again = TrajectoryBatch::new();
+        again.reshape(n, params.k, params.steps());
+        let mut scores = vec![0.0f32; n * params.k];
+        rollout
+            .predict_agents(&map, &agents, again.as_mut(), Some(&mut scores))
+            .unwrap();
+        assert_eq!(again.lens(), whole.lens(), "{params:?} {options:?}");
+        assert!(
+            whole
+                .positions()
+                .iter()
+                .zip(again.positions())
+                .all(|(a, b)| a.map(f32::to_bits) == b.map(f32::to_bits)),
+            "{params:?} {options:?}"
+        );
+        if !whole.scores().is_empty() {
+            assert_eq!(whole.scores(), &scores[..]);
+        }
+    }
+    // a bad restart leaves the rollout as it was
+    let before = rollout.clone();
+    let bad = Options {
+        coast: -1.0,
+        ..Options::default()
+    };
+    assert!(rollout.restart(&first, bad).is_err());
+    assert_eq!(
+        (rollout.params(), rollout.options()),
+        (before.params(), before.options())
+    );
+}
+
+#[test]
+fn candidates_keep_the_furthest_reaching_then_best_scored_of_the_draws() {
+    let (map, agents) = thor_agents();
+    for (k, c) in [(5usize, 4u32), (20, 3), (7, 16)] {
+        let params = Params {
+            k,
+            seed: 11,
+            ..Params::default()
+        };
+        let opts = Options {
+            follow: 2.0,
+            scores: true,
+            ..Options::default()
+        };
+        // the same draws: all c x k candidates, scored
+        let mut all = TrajectoryBatch::new();
+        let wide = Params {
+            k: k * c as usize,
+            ..params
+        };
+        predict_with(&map, &agents, &wide, &opts, &mut all).unwrap();
+        let mut kept = TrajectoryBatch::new();
+        let with = Options {
+            candidates: c,
+            ..opts
+        };
+        predict_with(&map, &agents, &params, &with, &mut kept).unwrap();
+        for a in 0..agents.len() {
+            let mut idx: Vec<usize> = (0..wide.k).collect();
+            idx.sort_by(|&x, &y| {
+                let (lx, ly) = (all.len(a, x), all.len(a, y));
+                let (sx, sy) = (all.score(a, x).unwrap(), all.score(a, y).unwrap());
+                ly.cmp(&lx).then(sy.total_cmp(&sx)).then(x.cmp(&y))
+            });
+            for (s, &i) in idx[..k].iter().enumerate() {
+                let bits = |b: &TrajectoryBatch, s: usize| -> Vec<[u32; 2]> {
+                    b.sample(a, s).iter().map(|p| p.map(f32::to_bits)).collect()
+                };
+                assert_eq!(bits(&kept, s), bits(&all, i), "k {k} c {c} agent {a}");
+                assert_eq!(kept.len(a, s), all.len(a, i));
+                assert_eq!(kept.score(a, s), all.score(a, i));
+            }
+            // kept samples reach at least as far as the others on average
+            let mean = |b: &TrajectoryBatch, n: usize| {
+                (0..n).map(|s| b.len(a, s) as f64).sum::<f64>() / n as f64
+            };
+            assert!(mean(&kept, k) >= mean(&all, wide.k));
+        }
+    }
+}
+
+#[test]
+fn a_score_buffer_of_the_wrong_size_is_refused() {
+    let (map, agents) = thor_agents();
+    let params = Params {
+        k: 2,
+        ..Params::default()
+    };
+    let mut b = TrajectoryBatch::new();
+    b.reshape(agents.len(), 2, params.steps());
+    let mut scores = vec![0.0f32; 2 * agents.len() - 1];
+    let mut rollout = Rollout::new(&params).unwrap();
+    let e = rollout.predict_agents(&map, &agents, b.as_mut(), Some(&mut scores));
+    assert!(matches!(e, Err(PredictError::Param { name: "scores", .. })));
+    assert!(
+        Rollout::new(&params)
+            .unwrap()
+            .with_options(Options {
+                coast: -1.0,
+                ..Options::default()
+            })
+            .is_err()
+    );
+}
