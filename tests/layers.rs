@@ -3,11 +3,11 @@
 //!
 //! Each `use` tree and each `crate::`/`super::`/`self::` path in a file's code (unit
 //! tests included; comments and strings are not code) is resolved to the file that
-//! defines the module it names: `crate::map::grid::Grid` names `src/map/grid.rs`,
-//! `crate::map::CliffMap` names `src/map/mod.rs`. A file that imports a sibling through
-//! its parent's re-export therefore imports the parent; the layout rule that follows is
-//! that `mod.rs`, `lib.rs` and `main.rs` declare modules, re-export and document, and
-//! the files below them import each other directly.
+//! defines what it names: `crate::map::grid::GridIndex` names `src/map/grid.rs`, and
+//! `crate::map::CliffMap` names the file that `src/map/mod.rs` re-exports it from. The
+//! re-exports of a module's front file (`lib.rs`, `main.rs`, `mod.rs`) are its face, not
+//! imports of its own; anything else a front file's code uses is an import like any
+//! other.
 //!
 //! The core library's layers, lowest first (see docs/architecture.md):
 //! `math` and `bounded_read`, `tracks`, `motion`, `map`, `predict`, `eval`, `plot`.
@@ -354,6 +354,9 @@ fn use_tree(t: &[(usize, &str)], mut i: usize) -> (Vec<Vec<String>>, usize) {
                     i += 1;
                     continue;
                 }
+                if t.get(i).map(|x| x.1) == Some("as") {
+                    i += 2;
+                }
                 break;
             }
             Some("*") => {
@@ -395,12 +398,106 @@ fn absolute(here: &[String], p: &[String]) -> Option<Vec<String>> {
     Some(m)
 }
 
-/// The file (index into `files`) that defines the deepest module of `path`.
-fn resolve(files: &[ModFile], path: &[String]) -> usize {
-    (0..=path.len())
-        .rev()
-        .find_map(|n| files.iter().position(|f| f.module == path[..n]))
-        .expect("the crate root matches every path")
+/// The re-exports of a module's front file: `(name, path it names)`, and the modules
+/// it re-exports whole (`pub use limits::*`).
+#[derive(Default)]
+struct ReExports {
+    named: Vec<(String, Vec<String>)>,
+    globs: Vec<Vec<String>>,
+}
+
+fn re_exports(f: &ModFile, code: &str) -> ReExports {
+    let t = tokens(code);
+    let mut out = ReExports::default();
+    if !is_front(f) {
+        return out;
+    }
+    let mut depth = 0;
+    for i in 0..t.len() {
+        match t[i].1 {
+            "{" => depth += 1,
+            "}" => depth -= 1,
+            "use"
+                if depth == 0
+                    && (i >= 1 && t[i - 1].1 == "pub"
+                        || i >= 4 && t[i - 1].1 == ")" && t[i - 4].1 == "pub") =>
+            {
+                let is_glob = |end: usize| end >= 1 && t[end - 1].1 == "*";
+                let (paths, end) = use_tree(&t, i + 1);
+                for p in paths {
+                    let Some(abs) = absolute(&f.module, &p) else {
+                        continue;
+                    };
+                    if is_glob(end) && paths_is_single_glob(&t, i + 1, end) {
+                        out.globs.push(abs);
+                    } else if let Some(name) = p.last() {
+                        out.named.push((name.clone(), abs));
+                    }
+                }
+            }
+            _ => {}
+        }
+    }
+    out
+}
+
+/// Whether the use tree between `from` and `to` is one glob (`a::b::*`).
+fn paths_is_single_glob(t: &[(usize, &str)], from: usize, to: usize) -> bool {
+    !t[from..to].iter().any(|x| x.1 == "{") && t[to - 1].1 == "*"
+}
+
+/// Whether the code of a file defines an item called `name`.
+fn defines(code: &str, name: &str) -> bool {
+    let t = tokens(code);
+    t.windows(2).any(|w| {
+        w[1].1 == name
+            && matches!(
+                w[0].1,
+                "fn" | "struct" | "enum" | "const" | "static" | "trait" | "type" | "mod" | "union"
+            )
+    })
+}
+
+/// The file (index into `files`) that defines what `path` names: the deepest module
+/// of the path, followed through the re-exports of module front files.
+fn resolve(files: &[ModFile], fronts: &[ReExports], codes: &[String], path: &[String]) -> usize {
+    let mut path = path.to_vec();
+    for _ in 0..16 {
+        let (n, i) = (0..=path.len())
+            .rev()
+            .find_map(|n| {
+                files
+                    .iter()
+                    .position(|f| f.module == path[..n])
+                    .map(|i| (n, i))
+            })
+            .expect("the crate root matches every path");
+        let Some(name) = path.get(n) else { return i };
+        if let Some((_, to)) = fronts[i].named.iter().find(|(nm, _)| nm == name) {
+            let mut next = to.clone();
+            next.extend(path[n + 1..].iter().cloned());
+            if next == path {
+                return i;
+            }
+            path = next;
+            continue;
+        }
+        let glob = fronts[i].globs.iter().find(|g| {
+            files
+                .iter()
+                .position(|f| &f.module == *g)
+                .is_some_and(|j| defines(&codes[j], name))
+        });
+        match glob {
+            Some(g) => {
+                let mut next = g.clone();
+                next.extend(path[n..].iter().cloned());
+                path = next;
+            }
+            None => return i,
+        }
+    }
+    panic!("re-exports of {path:?} go round in a circle")
 }
 
 struct Graph {
@@ -410,11 +507,19 @@ struct Graph {
 
 fn graph(c: &CrateSrc) -> Graph {
     let files = crate_files(&c.root);
+    let codes: Vec<String> = files
+        .iter()
+        .map(|f| code_only(&std::fs::read_to_string(&f.path).unwrap()))
+        .collect();
+    let fronts: Vec<ReExports> = files
+        .iter()
+        .zip(&codes)
+        .map(|(f, c)| re_exports(f, c))
+        .collect();
     let mut edges: BTreeMap<usize, BTreeSet<usize>> = BTreeMap::new();
     for (i, f) in files.iter().enumerate() {
-        let code = code_only(&std::fs::read_to_string(&f.path).unwrap());
-        for p in imports(f, &code) {
-            let j = resolve(&files, &p);
+        for p in imports(f, &codes[i]) {
+            let j = resolve(&files, &fronts, &codes, &p);
             if j != i {
                 edges.entry(i).or_default().insert(j);
             }

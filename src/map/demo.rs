@@ -24,7 +24,7 @@ fn component(theta: f64, rho: f64, weight: f64) -> Component {
     }
 }
 
-pub(super) fn demo_map() -> CliffMap {
+fn demo_map() -> CliffMap {
     let mut locations = Vec::new();
     for iy in -10..=10 {
         for ix in -15..=15 {
@@ -66,6 +66,14 @@ pub(super) fn demo_map() -> CliffMap {
         }
     }
     CliffMap::with_grid_step(locations, Some(1.0)).expect("the demo scene is a valid map")
+}
+
+impl CliffMap {
+    /// The built-in synthetic scene: a 30 m x 20 m hall with two crossing pedestrian
+    /// flows (east-west along the hall, north-south across it) and a mixed crossing.
+    pub fn demo() -> Self {
+        demo_map()
+    }
 }
 
 #[cfg(test)]

@@ -16,7 +16,7 @@
 
 use glam::DVec2;
 
-use super::{GridIndex, TableError};
+use super::grid::GridIndex;
 
 /// Largest sub-cell table (entries of 8 bytes) one radius gets: 16 MiB.
 pub const MAX_SUB_CELLS: usize = 2 << 20;
@@ -278,4 +278,23 @@ impl NeighbourTable {
             .find(|c| c.position.distance_squared(p) < self.r2)
             .map(|c| c.index as usize)
     }
+}
+
+/// Why a neighbour table was not built.
+#[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
+pub enum TableError {
+    /// The radius is not a positive number.
+    #[error("radius {radius} is not a positive number")]
+    BadRadius {
+        /// The radius asked for.
+        radius: f64,
+    },
+    /// The table would be larger than the budget (or than a table can be at all).
+    #[error("the table for radius {radius} m needs more than {limit} bytes")]
+    TooLarge {
+        /// The radius asked for.
+        radius: f64,
+        /// The size it exceeded (bytes).
+        limit: usize,
+    },
 }

@@ -17,32 +17,13 @@
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, RwLock};
 
-use super::neighbours::NeighbourTable;
+use super::neighbours::{NeighbourTable, TableError};
 
 /// Memory a map's neighbour tables may take together unless set otherwise: 256 MiB.
 pub const DEFAULT_TABLE_BUDGET: usize = 256 << 20;
 
 /// Failed builds remembered per map (the oldest is forgotten beyond this).
 const MAX_FAILED: usize = 64;
-
-/// Why a neighbour table was not built.
-#[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
-pub enum TableError {
-    /// The radius is not a positive number.
-    #[error("radius {radius} is not a positive number")]
-    BadRadius {
-        /// The radius asked for.
-        radius: f64,
-    },
-    /// The table would be larger than the budget (or than a table can be at all).
-    #[error("the table for radius {radius} m needs more than {limit} bytes")]
-    TooLarge {
-        /// The radius asked for.
-        radius: f64,
-        /// The size it exceeded (bytes).
-        limit: usize,
-    },
-}
 
 /// A cached table and when it was last used.
 #[derive(Debug)]
@@ -293,97 +274,6 @@ impl TableCache {
             bytes: s.bytes(),
             budget: s.budget,
             failed: s.failed.iter().map(|(r, _)| f64::from_bits(*r)).collect(),
-        }
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use glam::DVec2;
-
-    use super::super::CliffMap;
-    use super::*;
-
-    #[test]
-    fn tables_stay_within_the_budget_evicting_the_least_recently_used() {
-        let map = CliffMap::demo();
-        let one = map.build_table(0.5, false).unwrap().memory_bytes();
-        // room for about two tables of this size
-        map.set_table_budget(2 * one + one / 2);
-        for r in [0.5, 0.6, 0.7] {
-            map.build_table(r, false).unwrap();
-            let s = map.table_stats();
-            assert!(s.bytes <= s.budget, "{s:?}");
-        }
-        // 0.5 was used least recently: evicted for 0.7
-        assert_eq!(map.table_stats().radii, vec![0.6, 0.7]);
-        // using 0.6 makes 0.7 the next victim
-        assert!(map.cached_lookup(0.6).max_tests() > 0);
-        assert!(matches!(
-            map.cached_lookup(0.6),
-            crate::map::Lookup::Table(_)
-        ));
-        map.build_table(0.8, false).unwrap();
-        assert_eq!(map.table_stats().radii, vec![0.6, 0.8]);
-        // a radius without a table is answered by the grid scan, without building
-        assert!(matches!(
-            map.cached_lookup(0.5),
-            crate::map::Lookup::Grid(..)
-        ));
-        assert_eq!(map.table_stats().radii, vec![0.6, 0.8]);
-    }
-
-    #[test]
-    fn pinned_tables_are_kept_and_failed_builds_remembered() {
-        let map = CliffMap::demo();
-        let one = map.build_table(0.5, true).unwrap().memory_bytes();
-        map.set_table_budget(one + one / 2);
-        // the pinned table survives; another one cannot fit beside it
-        let e = map.build_table(0.6, false).unwrap_err();
-        assert!(matches!(e, TableError::TooLarge { .. }), "{e}");
-        assert_eq!(map.table_stats().radii, vec![0.5]);
-        assert_eq!(map.table_stats().failed, vec![0.6]);
-        assert!(map.table_settled(0.6) && map.table_settled(0.5) && !map.table_settled(0.7));
-        // a huge radius gives up without building (and is remembered too)
-        let e = map.build_table(150.0, false).unwrap_err();
-        assert!(matches!(e, TableError::TooLarge { .. }), "{e}");
-        assert!(map.table_settled(150.0));
-        // the library's lookup falls back to the grid scan with the same answers
-        let p = DVec2::new(-3.2, 0.4);
-        assert_eq!(map.lookup(0.6).best_near(p), map.best_near(p, 0.6));
-        assert!(matches!(
-            map.build_table(f64::NAN, false),
-            Err(TableError::BadRadius { .. })
-        ));
-        // a larger budget forgets the failures
-        map.set_table_budget(DEFAULT_TABLE_BUDGET);
-        assert!(map.build_table(0.6, false).is_ok());
-    }
-
-    #[test]
-    fn lookup_work_is_bounded_by_the_radius_in_grid_steps() {
-        for f in ["thor1/cliffmap.csv", "atc/cliffmap-20121024.csv"] {
-            let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-                .join("../shared/data")
-                .join(f);
-            let map = CliffMap::load(&path).unwrap();
-            let step = map.grid().step();
-            for cells in [1.0, 2.5, 4.0] {
-                let r = cells * step;
-                // (floor(2r) + 1)^2 cells, at most one location each
-                let bound = ((2.0 * cells).floor() as usize + 1).pow(2);
-                let grid = map.cached_lookup(r);
-                assert!(matches!(grid, crate::map::Lookup::Grid(..)));
-                assert!(grid.max_tests() <= bound, "{f} r {r}: {}", grid.max_tests());
-                // a table's candidate lists also cover half a cell more around each cell
-                let table = map.lookup(r);
-                let table_bound = ((2.0 * cells).ceil() as usize + 3).pow(2);
-                assert!(
-                    table.max_tests() <= table_bound,
-                    "{f} r {r}: {} > {table_bound}",
-                    table.max_tests()
-                );
-            }
         }
     }
 }

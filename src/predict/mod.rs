@@ -28,6 +28,7 @@ mod batch;
 mod options;
 pub mod preset;
 mod rollout;
+mod with_options;
 
 use std::fmt;
 use std::str::FromStr;
@@ -36,8 +37,9 @@ use crate::map::CliffMap;
 use crate::motion::State;
 
 pub use batch::{BatchMut, Point, TrajectoryBatch};
-pub use options::{NO_LOCATION_LOG_DENSITY, Options, predict_into_with, predict_with};
+pub use options::{NO_LOCATION_LOG_DENSITY, Options};
 pub use rollout::{Rollout, Tables};
+pub use with_options::{predict_into_with, predict_with};
 
 /// Prediction method.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]

@@ -58,9 +58,7 @@
 //! assert!(batch.scores().iter().all(|s| *s <= batch.score(0, best).unwrap()));
 //! ```
 
-use super::{BatchMut, Params, PredictError, Rollout, TrajectoryBatch};
-use crate::map::CliffMap;
-use crate::motion::State;
+use super::PredictError;
 
 /// Log-density of a step without a map location in a sample's score: a uniform
 /// velocity over headings `[0, 2pi)` and speeds `[0, 2]` m/s, `-ln(4 pi)`.
@@ -161,40 +159,4 @@ impl Options {
     pub(super) fn coast_steps(&self, dt: f64) -> u32 {
         (self.coast / dt + 1e-9).floor().min(u32::MAX as f64) as u32
     }
-}
-
-/// [`predict`](super::predict) with [`Options`]: scores, when asked (by the options or a
-/// preset method), go to [`TrajectoryBatch::scores`].
-pub fn predict_with(
-    map: &CliffMap,
-    agents: &[State],
-    params: &Params,
-    options: &Options,
-    out: &mut TrajectoryBatch,
-) -> Result<(), PredictError> {
-    let mut rollout = Rollout::new(params)?.with_options(*options)?;
-    let scored = rollout.options().scores;
-    out.try_reshape(agents.len(), params.k, params.steps())?;
-    out.try_size_scores(scored)?;
-    let (batch, scores) = out.parts_mut();
-    rollout.predict_agents(map, agents, batch, scored.then_some(scores))
-}
-
-/// [`predict_into`](super::predict_into) with [`Options`]; `scores` holds one score per
-/// sample (`agents x k`), or is empty for none. Scores are computed when the options
-/// ask for them ([`Options::scores`], or a preset method's) and `scores` is not empty;
-/// a non-empty `scores` without scores asked for is filled with NaN. [`Options::scores`]
-/// with an empty `scores` is an error.
-pub fn predict_into_with(
-    map: &CliffMap,
-    agents: &[State],
-    params: &Params,
-    options: &Options,
-    out: BatchMut<'_>,
-    scores: &mut [f32],
-) -> Result<(), PredictError> {
-    let buffer = (options.scores || !scores.is_empty()).then_some(scores);
-    Rollout::new(params)?
-        .with_options(*options)?
-        .predict_agents(map, agents, out, buffer)
 }

@@ -40,3 +40,16 @@ impl<T: MapAt + ?Sized> MapAt for &T {
         (**self).map_at(time)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_map_is_its_own_map_at_every_time_and_a_set_without_slices_its_all_day_map() {
+        let m = CliffMap::demo();
+        assert!(std::ptr::eq(m.map_at(123.0), &m));
+        let set = MapSet::single(CliffMap::demo());
+        assert!(std::ptr::eq(set.map_at(1.0), &**set.all_day()));
+    }
+}

@@ -220,7 +220,6 @@ impl MapSet {
 mod tests {
     use super::*;
     use crate::map::timeofday::clock::{clock_label, slice_label};
-    use crate::map::timeofday::map_at::MapAt;
 
     fn hourly(offset: f64, with: &[usize]) -> (MapSet, Vec<Arc<CliffMap>>) {
         let maps: Vec<Arc<CliffMap>> = (0..24).map(|_| Arc::new(CliffMap::demo())).collect();
@@ -307,10 +306,6 @@ mod tests {
             assert!(Arc::ptr_eq(set.at(t), set.all_day()));
         }
         assert_eq!(set.maps().count(), 1);
-        // MapAt: a map is its own map at every time
-        let m = CliffMap::demo();
-        assert!(std::ptr::eq(m.map_at(123.0), &m));
-        assert!(std::ptr::eq(set.map_at(1.0), &**set.all_day()));
     }
 
     #[test]

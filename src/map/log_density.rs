@@ -1,0 +1,58 @@
+//! The map's density of a velocity at a location: [`CliffMap::log_density`] (exact)
+//! and [`CliffMap::step_log_density`] (the prediction loop's single-precision score).
+
+use super::cliff_map::CliffMap;
+use crate::math::wrap_2pi;
+
+impl CliffMap {
+    /// Log-density of the velocity `(theta, rho)` (rad, m/s) under location `index`'s
+    /// mixture (weights renormalised, covariance eigenvalues floored at 1e-4, winding
+    /// numbers -1, 0, 1), as [`score`](score::score) computes it; `-inf` for a location
+    /// without components.
+    pub fn log_density(&self, index: usize, theta: f64, rho: f64) -> f64 {
+        let a = self.density_start[index] as usize;
+        let b = self.density_start[index + 1] as usize;
+        let theta = wrap_2pi(theta);
+        // streaming log-sum-exp
+        let mut m = f64::NEG_INFINITY;
+        let mut sum = 0.0;
+        for g in &self.density[a..b] {
+            let v = g.log_density_wrapped(theta, rho);
+            if v > m {
+                sum = sum * (m - v).exp() + 1.0;
+                m = v;
+            } else if v > f64::NEG_INFINITY {
+                sum += (v - m).exp();
+            }
+        }
+        if m == f64::NEG_INFINITY {
+            m
+        } else {
+            m + sum.ln()
+        }
+    }
+}
+
+impl CliffMap {
+    /// [`log_density`](Self::log_density) approximated for the prediction loop's sample
+    /// scores: the log-density of the likeliest component at the winding nearest the
+    /// heading, in single precision, the heading given as a unit vector `(ux, uy)`. At
+    /// most [`log_density`](Self::log_density) (within 1e-3 relative) and at most
+    /// `ln(3 x components)` below it, equal where one component explains the step, except for
+    /// strongly correlated components far in the speed tail, where this is the closer
+    /// to the mixture's density (see `src/map/density.rs`). `-inf` for a location without
+    /// components.
+    #[inline]
+    pub fn step_log_density(&self, index: usize, ux: f32, uy: f32, rho: f64) -> f64 {
+        let theta = crate::math::fastmath::atan2_f32(uy, ux);
+        self.step_log_density_at(index, theta, rho as f32) as f64
+    }
+
+    /// [`step_log_density`](Self::step_log_density) at the heading `theta` (rad), for
+    /// the prediction loop (which takes the headings' angles four samples at a time).
+    #[inline(always)]
+    pub(crate) fn step_log_density_at(&self, index: usize, theta: f32, rho: f32) -> f32 {
+        let v = self.step_density.log_density(index, theta, rho);
+        if v <= -1e29 { f32::NEG_INFINITY } else { v }
+    }
+}

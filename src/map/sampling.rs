@@ -1,0 +1,183 @@
+//! The draws a prediction makes at a location: a direction ([`DirectionSampler`], a
+//! rand [`Distribution`]), a direction weighted by the heading (follow), and a velocity.
+
+use rand::distr::Distribution;
+use rand::{Rng, RngExt};
+use rand_distr::StandardNormal;
+
+use super::cliff_map::CliffMap;
+use super::limits::MAX_COMPONENTS;
+use super::sampling_tables::{
+    DirectionComponent, FollowWeights, count_below, follow_cumulative, four_uniforms_normal,
+};
+use crate::math::wrap_2pi;
+
+impl CliffMap {
+    /// The direction distribution of location `index`: a draw picks a component by
+    /// weight and returns a direction from its (PSD-clamped) normal, wrapped to `[0, 2pi)`.
+    ///
+    /// Only the direction marginal is drawn: CLiFF-LHMP keeps the sampled direction and
+    /// discards the sampled speed, and the marginal of a bivariate normal is exactly
+    /// the normal of its first coordinate.
+    #[inline]
+    pub fn direction_at(&self, index: usize) -> DirectionSampler<'_> {
+        let a = self.comp_start[index] as usize;
+        let b = self.comp_start[index + 1] as usize;
+        DirectionSampler {
+            table: &self.table[a..b],
+        }
+    }
+
+    /// A direction draw at location `index` that favours the components going the way
+    /// the walker heads (unit vector `(ux, uy)`): component `j` is chosen with
+    /// probability proportional to `w_j exp(-kappa (1 - cos(heading - mu_j)))`, the
+    /// posterior of the component given a heading observed with a von Mises likelihood
+    /// of concentration `kappa`; the direction is then drawn from that component as in
+    /// [`direction_at`](Self::direction_at) (one uniform and one normal draw, unwrapped).
+    /// `kappa = 0` chooses by weight alone, like `direction_at` (up to the rounding of the
+    /// cumulative weights).
+    ///
+    /// ```
+    /// use cliff::map::{CliffMap, Component, Location};
+    /// use glam::DVec2;
+    /// use rand::SeedableRng;
+    /// // one location, two equal flows: east and west
+    /// let c = |theta: f64| Component { theta, rho: 1.0, cov: [0.01, 0.0, 0.0, 0.01], weight: 0.5 };
+    /// let loc = Location { position: DVec2::ZERO, components: vec![c(0.0), c(std::f64::consts::PI)], motion_ratio: 1.0, observation_ratio: 1.0 };
+    /// let map = CliffMap::new(vec![loc]).unwrap();
+    /// let mut rng = rand_xoshiro::Xoshiro256PlusPlus::seed_from_u64(1);
+    /// // a walker heading east keeps to the eastward flow
+    /// let east = (0..1000).filter(|_| map.direction_following(0, 1.0, 0.0, 4.0, &mut rng).cos() > 0.0).count();
+    /// assert!(east > 990);
+    /// ```
+    #[inline]
+    pub fn direction_following<R: Rng + ?Sized>(
+        &self,
+        index: usize,
+        ux: f64,
+        uy: f64,
+        kappa: f64,
+        rng: &mut R,
+    ) -> f64 {
+        let a = self.comp_start[index] as usize;
+        let b = self.comp_start[index + 1] as usize;
+        let blocks =
+            &self.follow[self.follow_start[index] as usize..self.follow_start[index + 1] as usize];
+        let (ux, uy, kappa) = (ux as f32, uy as f32, kappa as f32);
+        let u = rng.random::<f64>() as f32;
+        let below = if blocks.len() <= 2 {
+            count_below(&follow_cumulative::<8>(blocks, ux, uy, kappa), u)
+        } else {
+            count_below(
+                &follow_cumulative::<MAX_COMPONENTS>(blocks, ux, uy, kappa),
+                u,
+            )
+        };
+        // (padding repeats the last component)
+        let i = below.min(b - a - 1);
+        let c = &self.table[a + i];
+        let z: f64 = StandardNormal.sample(rng);
+        c.mu + c.sigma * z
+    }
+
+    /// Whether every location's follow components fit [`FollowWeights`] (at most
+    /// eight components per location): then a predictor may split
+    /// [`direction_following`](Self::direction_following) into
+    /// [`follow_weights`](Self::follow_weights) and
+    /// [`draw_following`](Self::draw_following).
+    pub fn follow_weights_fit(&self) -> bool {
+        self.follow_start.windows(2).all(|w| w[1] - w[0] <= 2)
+    }
+
+    /// The part of [`direction_following`](Self::direction_following) that draws
+    /// nothing: location `index`'s cumulative component weights for the heading
+    /// `(ux, uy)`, scaled by a common factor. For maps where
+    /// [`follow_weights_fit`](Self::follow_weights_fit) (others get the weights of their
+    /// first eight components). A predictor computes them for all its samples before
+    /// they draw (the samples' arithmetic then overlaps).
+    #[inline(always)]
+    pub fn follow_weights(&self, index: usize, ux: f32, uy: f32, kappa: f32) -> FollowWeights {
+        let s = self.follow_start[index] as usize;
+        let e = (self.follow_start[index + 1] as usize).min(s + 2);
+        FollowWeights(follow_cumulative::<8>(&self.follow[s..e], ux, uy, kappa))
+    }
+
+    /// The draw of [`direction_following`](Self::direction_following) at location
+    /// `index` with its [`follow_weights`](Self::follow_weights): the same component
+    /// and direction for the same generator.
+    #[inline(always)]
+    pub fn draw_following<R: Rng + ?Sized>(
+        &self,
+        index: usize,
+        weights: &FollowWeights,
+        rng: &mut R,
+    ) -> f64 {
+        let a = self.comp_start[index] as usize;
+        let b = self.comp_start[index + 1] as usize;
+        let u = rng.random::<f64>() as f32;
+        let i = count_below(&weights.0, u).min(b - a - 1);
+        let c = &self.table[a + i];
+        let z: f64 = StandardNormal.sample(rng);
+        c.mu + c.sigma * z
+    }
+
+    /// A velocity draw at location `index`: a component by weight, a direction from its
+    /// normal (unwrapped, as [`DirectionSampler::sample_unwrapped`]) and a speed from the
+    /// component's normal given that direction (clamped at 0). One random word chooses the
+    /// component (its high 32 bits) and gives the speed's noise (its low 32 bits, a sum
+    /// of four uniforms: variance 1, within 0.01 of the normal's distribution function,
+    /// bounded by +-3.46), then a normal draw gives the direction, so its stream differs
+    /// from [`direction_at`](Self::direction_at)'s.
+    #[inline(always)]
+    pub fn velocity_at<R: Rng + ?Sized>(&self, index: usize, rng: &mut R) -> (f64, f64) {
+        let a = self.comp_start[index] as usize;
+        let b = self.comp_start[index + 1] as usize;
+        let table = &self.table[a..b];
+        // one word for the component (its high half) and the speed's noise (its low one)
+        let bits = rng.next_u64();
+        let u = (bits >> 32) as f64 * (1.0 / 4_294_967_296.0);
+        let i = table
+            .iter()
+            .map(|e| (u >= e.cum_weight) as usize)
+            .sum::<usize>()
+            .min(table.len() - 1);
+        let (c, sp) = (&table[i], &self.speed[a + i]);
+        let z: f64 = StandardNormal.sample(rng);
+        (
+            c.mu + c.sigma * z,
+            (sp.mean + sp.slope * z as f32 + sp.sd * four_uniforms_normal(bits as u32)).max(0.0)
+                as f64,
+        )
+    }
+}
+
+/// Sampling a direction at one location, as a [`Distribution`] (see [`CliffMap::direction_at`]).
+#[derive(Debug, Clone, Copy)]
+pub struct DirectionSampler<'a> {
+    table: &'a [DirectionComponent],
+}
+
+impl DirectionSampler<'_> {
+    /// A draw as [`sample`](Distribution::sample) gives it, before wrapping to
+    /// `[0, 2pi)` (for callers that only take its sine and cosine).
+    #[inline(always)]
+    pub fn sample_unwrapped<R: Rng + ?Sized>(&self, rng: &mut R) -> f64 {
+        let u: f64 = rng.random();
+        // Branch-free choice: the number of cumulative weights at or below u.
+        let i = self
+            .table
+            .iter()
+            .map(|e| (u >= e.cum_weight) as usize)
+            .sum::<usize>();
+        let c = &self.table[i.min(self.table.len() - 1)];
+        let z: f64 = StandardNormal.sample(rng);
+        c.mu + c.sigma * z
+    }
+}
+
+impl Distribution<f64> for DirectionSampler<'_> {
+    #[inline(always)]
+    fn sample<R: Rng + ?Sized>(&self, rng: &mut R) -> f64 {
+        wrap_2pi(self.sample_unwrapped(rng))
+    }
+}
