@@ -1,12 +1,20 @@
 //! # cliff: long-term human motion prediction with CLiFF-maps
 //!
-//! * [`map`]: CLiFF-maps (published CSV format, our snapshot format, grid index, the
-//!   built-in demo scene).
-//! * [`motion`]: motion state and observed velocity from a history.
-//! * [`predict`]: CLiFF-LHMP and constant-velocity prediction into reusable batches.
-//! * [`eval`]: dataset readers, evaluation protocols and metrics.
-//! * [`plot`]: pictures of maps, predictions and error curves (PNG or SVG).
-//! * [`scene`]: synthetic people walking in the built-in demo hall.
+//! The modules are layers, lowest first; each imports only the layers below it (the
+//! test `tests/layers.rs` holds the library to that, and to no circle of files):
+//!
+//! | layer | what it holds |
+//! |---|---|
+//! | [`math`] | angle wrapping and the prediction loop's fast kernels |
+//! | [`tracks`] | [`Track`](tracks::Track)s, their bounds and the readers (THÖR, ATC, MAGNI, named-column CSV), the demo scene's people |
+//! | [`motion`] | a person's [`State`](motion::State), observed velocity, the speed prior |
+//! | [`map`] | CLiFF-maps: the type, lookups, sampling tables, files, building, scoring, online update, time-of-day sets |
+//! | [`predict`] | CLiFF-LHMP and constant velocity into reusable batches; options and presets |
+//! | [`eval`] | evaluation protocols, metrics, reports; fitting the speed prior |
+//! | [`plot`] | pictures of maps, predictions and error curves (PNG or SVG) |
+//!
+//! The `cliff` command line (`src/bin/cliff`), the daemon and client crates and the
+//! Python package are built on top; docs/architecture.md shows the whole house.
 //!
 //! ```
 //! use cliff::{map::CliffMap, motion::State, predict::{predict, Params, TrajectoryBatch}};

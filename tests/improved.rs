@@ -65,8 +65,8 @@ fn improved_beats_the_paper_on_held_out_atc_people() {
         ratio(20.0),
         ratio(50.0)
     );
-    // the targets (10 % at 50 s, 5 % at 20 s, no worse than 2 % at 5 s) with a
-    // margin for this smaller map and fewer seeds
+    // the accuracy targets of `improved` (10 % at 50 s, 5 % at 20 s, no worse than 2 % at
+    // 5 s) with a margin for this smaller map and fewer seeds
     assert!(ratio(5.0) < 1.02, "5 s: {:.3}", ratio(5.0));
     assert!(ratio(20.0) < 0.95, "20 s: {:.3}", ratio(20.0));
     assert!(ratio(50.0) < 0.95, "50 s: {:.3}", ratio(50.0));

@@ -1,4 +1,4 @@
-//! Property tests of the file readers (issue 9): random mutations of the real map CSV,
+//! Property tests of the file readers: random mutations of the real map CSV,
 //! snapshot and trajectory files never panic, and each either loads (and keeps its
 //! invariants) or gives an error naming the file, line and column. Seeded, so a failure
 //! reproduces; the same readers are fuzzed for much longer by the targets in `fuzz/`.

@@ -234,7 +234,7 @@ fn bad_input_gets_clear_errors() {
     assert!(e.contains("decay 0 must be in (0, 1]"), "{e}");
 }
 
-/// The known crashes of issue 9: a map CSV with one x of 1e20 made `cliff map info` panic
+/// Crashes found by fuzzing the loaders: a map CSV with one x of 1e20 made `cliff map info` panic
 /// (an overflowing grid cell count), and a snapshot with a grid step of 1e300 m loaded.
 #[test]
 fn absurd_maps_get_errors_with_file_line_and_column_not_panics() {
