@@ -25,6 +25,9 @@
 //! ```
 
 mod batch;
+mod call;
+mod cvm;
+mod lanes;
 mod options;
 pub mod preset;
 mod rollout;

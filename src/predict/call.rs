@@ -1,0 +1,159 @@
+//! One call of the rollout: its inputs and outputs, and the dispatch to the loop
+//! flavour the method and options need (constant velocity, or the CLiFF-LHMP lane loop
+//! with or without scores, speed kernel, coasting, follow and candidates).
+
+use glam::DVec2;
+use rand_xoshiro::Xoshiro256PlusPlus;
+
+use super::cvm::{cvm_score, roll_cvm};
+use super::lanes::{ANY, Extras, Lanes, PAPER, SPEED};
+use super::{BatchMut, Method, Params, Point};
+use crate::map::CliffMap;
+use crate::motion::State;
+
+/// The drawn candidates of one agent before the best `k` are kept.
+#[derive(Debug, Clone, Default)]
+pub(super) struct Candidates {
+    pub(super) tracks: Vec<Point>,
+    pub(super) lens: Vec<u32>,
+    pub(super) scores: Vec<f32>,
+    pub(super) order: Vec<u32>,
+}
+
+/// One call's inputs and outputs, for the flavour dispatch.
+pub(super) struct Call<'a, 'b> {
+    pub(super) map: &'a CliffMap,
+    pub(super) agents: &'a [State],
+    pub(super) params: &'a Params,
+    pub(super) extras: &'a Extras,
+    pub(super) rng: &'a mut Xoshiro256PlusPlus,
+    pub(super) out: BatchMut<'b>,
+    pub(super) scores: Option<&'b mut [f32]>,
+    pub(super) scratch: &'a mut Candidates,
+}
+
+impl Call<'_, '_> {
+    /// Predict with the map lookup `near` (monomorphised per lookup kind so the hot loop
+    /// inlines it).
+    pub(super) fn run(self, near: impl Fn(DVec2) -> Option<usize>) {
+        if self.params.method == Method::Cvm {
+            return self.cvm(near);
+        }
+        let e = self.extras;
+        let motion = if e.coast_steps > 0 || e.follow > 0.0 {
+            ANY
+        } else if e.speed_beta > 0.0 {
+            SPEED
+        } else {
+            PAPER
+        };
+        // candidates are ranked by their scores
+        let scores = self.scores.is_some() || e.candidates > 1;
+        match (motion, scores) {
+            (PAPER, false) => self.cliff::<PAPER, false>(near),
+            (PAPER, true) => self.cliff::<PAPER, true>(near),
+            (SPEED, false) => self.cliff::<SPEED, false>(near),
+            (SPEED, true) => self.cliff::<SPEED, true>(near),
+            (_, false) => self.cliff::<ANY, false>(near),
+            (_, true) => self.cliff::<ANY, true>(near),
+        }
+    }
+
+    pub(super) fn cvm(mut self, near: impl Fn(DVec2) -> Option<usize>) {
+        let steps = self.params.steps();
+        let k = self.params.k;
+        for (a, state) in self.agents.iter().enumerate() {
+            let tracks = &mut self.out.positions[a * k * steps..(a + 1) * k * steps];
+            let lens = &mut self.out.lens[a * k..(a + 1) * k];
+            for (track, len) in tracks.chunks_exact_mut(steps).zip(lens) {
+                roll_cvm(state, self.params.dt, track);
+                *len = steps as u32;
+            }
+            if let Some(scores) = self.scores.as_deref_mut() {
+                let v = cvm_score(self.map, &near, state, self.params.dt, steps);
+                scores[a * k..(a + 1) * k].fill(v as f32);
+            }
+        }
+    }
+
+    /// Roll every CLiFF-LHMP sample of every agent in the flavour `MOTION` ([`PAPER`],
+    /// [`SPEED`] or [`ANY`]), `SCORES` (scores on, or candidates to rank).
+    fn cliff<const MOTION: u8, const SCORES: bool>(self, near: impl Fn(DVec2) -> Option<usize>) {
+        let Call {
+            map,
+            agents,
+            params,
+            extras,
+            rng,
+            out,
+            mut scores,
+            scratch,
+        } = self;
+        let steps = params.steps();
+        let k = params.k;
+        let c = extras.candidates;
+        if c > 1 {
+            scratch.tracks.resize(c * k * steps, [0.0; 2]);
+            scratch.lens.resize(c * k, 0);
+            scratch.scores.resize(c * k, 0.0);
+            scratch.order.resize(c * k, 0);
+        }
+        for (a, state) in agents.iter().enumerate() {
+            let state = &match extras.speed_prior {
+                Some(prior) => State {
+                    speed: prior.apply(state.speed),
+                    ..*state
+                },
+                None => *state,
+            };
+            let lanes = Lanes {
+                map,
+                near: &near,
+                state,
+                params,
+                extras,
+            };
+            let tracks = &mut out.positions[a * k * steps..(a + 1) * k * steps];
+            let lens = &mut out.lens[a * k..(a + 1) * k];
+            let agent_scores = scores.as_deref_mut().map(|s| &mut s[a * k..(a + 1) * k]);
+            if c == 1 {
+                lanes.roll_agent::<MOTION, SCORES>(
+                    rng,
+                    tracks,
+                    lens,
+                    agent_scores.unwrap_or(&mut []),
+                );
+                continue;
+            }
+            lanes.roll_agent::<MOTION, true>(
+                rng,
+                &mut scratch.tracks,
+                &mut scratch.lens,
+                &mut scratch.scores,
+            );
+            // keep the k that reach furthest, then the highest-scored (ties: drawn first)
+            let (cl, cs) = (&scratch.lens, &scratch.scores);
+            for (i, o) in scratch.order.iter_mut().enumerate() {
+                *o = i as u32;
+            }
+            scratch.order.sort_unstable_by(|&x, &y| {
+                let (x, y) = (x as usize, y as usize);
+                cl[y]
+                    .cmp(&cl[x])
+                    .then(cs[y].total_cmp(&cs[x]))
+                    .then(x.cmp(&y))
+            });
+            for (s, &i) in scratch.order[..k].iter().enumerate() {
+                let i = i as usize;
+                tracks[s * steps..(s + 1) * steps]
+                    .copy_from_slice(&scratch.tracks[i * steps..(i + 1) * steps]);
+                lens[s] = scratch.lens[i];
+            }
+            if let Some(out_scores) = agent_scores {
+                for (s, &i) in scratch.order[..k].iter().enumerate() {
+                    out_scores[s] = scratch.scores[i as usize];
+                }
+            }
+        }
+    }
+}
