@@ -31,6 +31,7 @@
 //! | `lookup` | [`Lookup`] and the radius queries ([`CliffMap::best_near`], ...) |
 //! | `sampling_tables` | the tables the draws read, built at construction |
 //! | `sampling` | the draws: [`DirectionSampler`], follow, velocity |
+//! | `mixture` | merging and capping a location's components |
 //! | `log_density`, `density` | the map's density of a step (scores) |
 //! | `grid`, `neighbours`, `tables` | the grid index, neighbour tables and their cache |
 //! | `csv`, `snapshot` | the published CSV format and our snapshot format |
@@ -53,6 +54,7 @@ mod limits;
 mod location;
 mod log_density;
 mod lookup;
+mod mixture;
 mod neighbours;
 mod sampling;
 mod sampling_tables;

@@ -9,7 +9,7 @@ use super::smoothing::Smoothing;
 use crate::map::build::{
     BuildError, BuildParams, Built, Observation, build_map_with_progress, check_observations,
 };
-use crate::map::update::{cap_components, merge_near_duplicates};
+use crate::map::mixture::{cap_components, merge_near_duplicates};
 use crate::map::{CliffMap, Component, Location};
 use crate::math::wrap_2pi;
 
