@@ -341,7 +341,7 @@ class Runner:
             bg = Background(block.name, substitute(cmds[0].text, self.port), self.work, self.env, block.ready)
             self.background.append(bg)
             bg.wait_ready()
-            problem = check_output(cmds[0].expected, "\n".join(bg.lines))
+            problem = check_output(self.expected(cmds[0]), "\n".join(bg.lines))
             assert problem is None, f"{block.name}: {problem}\noutput:\n" + "\n".join(bg.lines)
             return
         for cmd in cmds:
@@ -373,8 +373,12 @@ class Runner:
             assert status != 0, f"expected to fail: {shown}"
         else:
             assert status == 0, f"failed: {shown}"
-        problem = check_output(cmd.expected, output)
+        problem = check_output(self.expected(cmd), output)
         assert problem is None, f"{problem}\n{shown}"
+
+    def expected(self, cmd: Command) -> list[str]:
+        """The command's expected lines, with the port it was given."""
+        return [line.replace("127.0.0.1:7447", f"127.0.0.1:{self.port}") for line in cmd.expected]
 
     def run_python(self, block: Block) -> None:
         script = self.work / f"example-{block.page.stem}-{block.line}.py"
