@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Held-out evidence for `improved` and its parts (issue #12, item 7).
+"""Held-out evidence for `improved` and its parts (the tables of docs/accuracy.md).
 
 Runs `cliff eval` on atc/dev (the odd hours) with maps built from atc/train only, every
 variant on the same people with the same seeds, and prints a Markdown table: mean ADE

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Defaults when clients outnumber cores (issue 9, item 3): four clients back to back on
+# Defaults when clients outnumber cores (docs/daemon.md, "Sharing one daemon"): four clients back to back on
 # this machine's cores, agent-predictions per second with the default daemon and client
 # settings (workers = cores, hybrid wait) next to the other daemon and client settings,
 # measured in the same run (three rounds, interleaved); then one client alone with the

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Small requests beside the largest ones (issue 9, item 2): while one client sends
+# Small requests beside the largest ones (docs/daemon.md, "Sharing one daemon"): while one client sends
 # maximum-size requests back to back (32 agents x k 50 x 100 steps), a second client
 # sends 1-agent requests (k 20, 30 steps) at 100 Hz; its p99 must stay under 1 ms.
 # Three runs against one default cliffd, plus the small client alone for reference.

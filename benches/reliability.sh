@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Fault and soak figures of BENCHMARKS.md (issue 9, item 7), against real processes:
+# Fault and soak figures of BENCHMARKS.md ("Sharing one daemon"), against real processes:
 #
 #   1. soak: 8 clients x 125,000 requests with --verify: no mismatch, no error;
 #   2. 100 clients killed with SIGKILL mid-request (10 waves of 10) while two verified
