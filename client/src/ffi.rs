@@ -29,8 +29,13 @@ use std::time::Duration;
 
 use cliff::predict::Params;
 
+use crate::client::{Answer, Client};
+use crate::error::Error;
+use crate::ipc::DEFAULT_SERVICE;
+use crate::options::{ClientOptions, WaitMode};
+use crate::prediction::{RawResponse, best_of, split_payload};
 use crate::protocol::{self, Observation, Status};
-use crate::{Answer, Client, ClientOptions, Error, RawResponse, Request, WaitMode, split_payload};
+use crate::request::Request;
 
 /// Success.
 pub const CLIFF_OK: i32 = 0;
@@ -305,7 +310,7 @@ pub unsafe extern "C" fn cliff_client_connect(
         return invalid("out is NULL");
     }
     let service = if service.is_null() {
-        crate::DEFAULT_SERVICE
+        DEFAULT_SERVICE
     } else {
         // SAFETY: non-null, NUL-terminated by contract
         match unsafe { str_arg(service, "service") } {
@@ -370,7 +375,7 @@ pub unsafe extern "C" fn cliff_client_connect_zenoh(
         (Ok(e), Ok(s), Ok(f)) => (e, s, f),
         (Err(c), _, _) | (_, Err(c), _) | (_, _, Err(c)) => return c,
     };
-    let service = service.unwrap_or_else(|| crate::DEFAULT_SERVICE.to_string());
+    let service = service.unwrap_or_else(|| DEFAULT_SERVICE.to_string());
     let endpoints: Vec<String> = endpoint.into_iter().collect();
     let config = config_file.as_deref().map(std::path::Path::new);
     match Client::connect_zenoh_with(&endpoints, config, &service, ClientOptions::default()) {
@@ -665,7 +670,7 @@ pub unsafe extern "C" fn cliff_prediction_best_sample(
     let k = p.k as usize;
     // SAFETY: scores holds agents * k floats while the prediction is valid
     let scores = unsafe { std::slice::from_raw_parts(p.scores.add(agent as usize * k), k) };
-    crate::best_of(scores).map_or(-1, |s| s as i64)
+    best_of(scores).map_or(-1, |s| s as i64)
 }
 
 /// Give the last prediction's shared memory back to the daemon before the next call.
@@ -714,6 +719,16 @@ mod tests {
         assert_eq!(CLIFF_TIME_NOW, protocol::TIME_NOW);
         assert_eq!(CLIFF_TIME_AT, protocol::TIME_AT);
         assert_eq!(CLIFF_TIME_ALL_DAY, protocol::TIME_ALL_DAY);
+    }
+
+    #[test]
+    fn every_status_has_the_name_the_rust_side_gives_it() {
+        for c in 0..17 {
+            let s = Status::from_code(c).unwrap();
+            // SAFETY: cliff_status_name returns a static NUL-terminated string
+            let name = unsafe { CStr::from_ptr(cliff_status_name(c)) };
+            assert_eq!(name.to_str().unwrap(), s.name());
+        }
     }
 
     #[test]

@@ -22,8 +22,9 @@ use zenoh::key_expr::KeyExpr;
 use zenoh::qos::CongestionControl;
 use zenoh::query::ConsolidationMode;
 
+use crate::error::{Error, version_mismatch};
 use crate::protocol::{Observation, RequestHeader, ResponseHeader};
-use crate::{Error, wire};
+use crate::wire;
 
 /// The key expression a daemon serving the service `service` answers on: the service
 /// name itself (`cliff/predict`).
@@ -186,7 +187,7 @@ impl ZenohLink {
             Ok(sample) => {
                 let bytes = sample.payload().to_bytes();
                 wire::decode_response(&bytes, usize::MAX, &mut self.payload).map_err(|e| match e {
-                    wire::WireError::Version { found } => crate::version_mismatch(found),
+                    wire::WireError::Version { found } => version_mismatch(found),
                     e => Error::Protocol(e.to_string()),
                 })
             }

@@ -1,4 +1,4 @@
-//! Property test of request decoding (issue 9): random requests, mostly valid and then
+//! Property test of request decoding: random requests, mostly valid and then
 //! perturbed field by field, go through `decode_request` with the default limits; none
 //! panics, and every accepted one predicts (with its options and scores) on the demo
 //! map with the shape it asked for.

@@ -4,15 +4,18 @@
 //! iceoryx2 request-response service (protocol: [`cliff_client::protocol`]). The crate's
 //! parts:
 //!
-//! * [`settings`](Settings): what a daemon serves and its limits;
-//! * the map registry (`registry.rs`): maps, their radius limits and neighbour tables
+//! * `settings.rs`: what a daemon serves and its limits ([`Settings`], [`MapSpec`],
+//!   [`StartError`]);
+//! * `registry.rs`: the map registry: maps, their radius limits and neighbour tables
 //!   (built at load, on reload and by a background thread, never on the serving thread),
 //!   and reloads on their own thread;
-//! * the scheduler (`scheduler.rs`): accepted requests cut into chunks of agents that
-//!   take turns, predicted by the workers straight into the responses;
-//! * the serving loop (`serve.rs`): iceoryx2 ports, validation, responses, housekeeping;
-//! * with the feature `zenoh`, the [`zenoh`] frontend: remote requests over a zenoh
-//!   queryable, validated and scheduled like local ones.
+//! * `scheduler.rs`: accepted requests cut into chunks of agents that take turns,
+//!   predicted by the workers straight into the responses;
+//! * `serve/`: the [`Daemon`] and its serving loop: iceoryx2 ports, requests in
+//!   (validation against the maps), responses out, reloads, old clients, housekeeping
+//!   (one part per file, listed in `serve/mod.rs`);
+//! * `zenoh` (feature `zenoh`): the frontend for remote requests over a zenoh queryable,
+//!   validated and scheduled like local ones.
 //!
 //! ## What one request can cost
 //!

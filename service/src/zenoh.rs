@@ -37,7 +37,7 @@ use zenoh::Wait;
 use zenoh::bytes::ZBytes;
 use zenoh::query::{Query, Queryable};
 
-use crate::StartError;
+use crate::settings::StartError;
 
 /// Where and how the daemon serves remote clients.
 #[derive(Debug, Clone, PartialEq, Eq)]

@@ -1,0 +1,316 @@
+//! The [`Daemon`]: its maps, iceoryx2 services and ports, scheduler and counters; how
+//! it is created (and what it reports). Serving is in the sibling files: `run.rs` (the
+//! loop), `accept.rs` (requests in), `respond.rs` (responses out), `reload.rs` and
+//! `old_clients.rs`.
+
+use cliff_client::protocol::{self, Observation, PROTOCOL_VERSION, RequestHeader, ResponseHeader};
+use cliff_client::{PredictService, legacy, request_event_name, response_event_name};
+use iceoryx2::port::listener::Listener;
+use iceoryx2::prelude::*;
+use tracing::info;
+
+use crate::registry::{Registry, TablePolicy};
+use crate::scheduler::Scheduler;
+use crate::settings::{Settings, StartError};
+
+use super::output::Out;
+#[cfg(feature = "zenoh")]
+use super::output::Remote;
+use super::ports::{Active, LegacyPort, LegacyService, Port};
+use super::stats::Stats;
+use super::wakeups::Wakeups;
+
+/// The prediction daemon: maps, iceoryx2 ports and the scheduler.
+pub struct Daemon {
+    pub(super) settings: Settings,
+    pub(super) registry: Registry,
+    pub(super) scheduler: Scheduler<Out>,
+    // ports before services before node (drop order)
+    pub(super) server: Port,
+    /// Protocol version 1's service, where every request gets `bad-version`.
+    pub(super) legacy_server: LegacyPort,
+    pub(super) wake: Listener<ipc::Service>,
+    pub(super) wakeups: Wakeups,
+    pub(super) service: PredictService,
+    _legacy_service: LegacyService,
+    _wake_service: iceoryx2::service::port_factory::event::PortFactory<ipc::Service>,
+    _response_events: iceoryx2::service::port_factory::event::PortFactory<ipc::Service>,
+    pub(super) node: Node<ipc::Service>,
+    /// Reload requests and the reload generation that answers each.
+    pub(super) reload_waiters: Vec<(u64, Active)>,
+    pub(super) stats: Stats,
+    /// Cores of this host (for the busy hint of responses).
+    pub(super) cores: usize,
+    /// Remote clients over zenoh, once [`Daemon::serve_zenoh`] started them.
+    #[cfg(feature = "zenoh")]
+    pub(super) remote: Option<Remote>,
+}
+
+/// A failure of iceoryx2 at start: what failed and its error.
+fn ipc(what: &str, e: impl std::fmt::Debug) -> StartError {
+    StartError::Ipc(format!("{what}: {e:?}"))
+}
+
+impl Daemon {
+    /// Load the maps and create the iceoryx2 service and ports.
+    pub fn new(settings: Settings) -> Result<Daemon, StartError> {
+        settings.check()?;
+        let l = settings.limits;
+        let words = l.max_payload_words();
+        let registry = Registry::load(&settings.maps, TablePolicy::from_settings(&settings))?;
+
+        let config = cliff_client::iceoryx_config(settings.prefix.as_deref())
+            .map_err(StartError::Settings)?;
+        let node = NodeBuilder::new()
+            .config(&config)
+            .signal_handling_mode(SignalHandlingMode::Disabled)
+            .create::<ipc::Service>()
+            .map_err(|e| ipc("cannot create node", e))?;
+        let name = |s: &str| {
+            ServiceName::new(s)
+                .map_err(|e| StartError::Settings(format!("service name '{s}': {e:?}")))
+        };
+        let clients = settings.max_clients;
+        let nodes = clients + 4;
+        let service = node
+            .service_builder(&name(&protocol::ipc_service_name(&settings.service))?)
+            .request_response::<[Observation], [u32]>()
+            .request_user_header::<RequestHeader>()
+            .response_user_header::<ResponseHeader>()
+            .max_clients(clients)
+            .max_servers(2)
+            .max_nodes(nodes)
+            .max_active_requests_per_client(settings.max_active_requests)
+            .max_loaned_requests(1)
+            .max_response_buffer_size(1)
+            .max_borrowed_responses_per_pending_response(1)
+            .open_or_create()
+            .map_err(|e| ipc("cannot open or create the service", e))?;
+        if service.dynamic_config().number_of_servers() > 0 {
+            return Err(StartError::AlreadyServed(settings.service.clone()));
+        }
+        // protocol version 1's name and types, only to tell old clients the version
+        let legacy_service = node
+            .service_builder(&name(&legacy::ipc_service_name(&settings.service))?)
+            .request_response::<[legacy::Observation], [u32]>()
+            .request_user_header::<legacy::RequestHeader>()
+            .response_user_header::<legacy::ResponseHeader>()
+            .max_clients(clients)
+            .max_servers(2)
+            .max_nodes(nodes)
+            .max_active_requests_per_client(settings.max_active_requests)
+            .max_loaned_requests(1)
+            .max_response_buffer_size(1)
+            .max_borrowed_responses_per_pending_response(1)
+            .open_or_create()
+            .map_err(|e| {
+                ipc(
+                    &format!(
+                        "cannot open or create '{}' for clients of protocol version 1 \
+                         (does a daemon of version 1 serve it?)",
+                        settings.service
+                    ),
+                    e,
+                )
+            })?;
+        if legacy_service.dynamic_config().number_of_servers() > 0 {
+            return Err(StartError::AlreadyServed(settings.service.clone()));
+        }
+        let wake_service = node
+            .service_builder(&name(&request_event_name(&settings.service))?)
+            .event()
+            .max_notifiers(clients + 2)
+            .max_listeners(2)
+            .max_nodes(nodes)
+            .open_or_create()
+            .map_err(|e| ipc("cannot open or create the request event service", e))?;
+        let response_events = node
+            .service_builder(&name(&response_event_name(&settings.service))?)
+            .event()
+            .max_notifiers(2)
+            .max_listeners(clients + 2)
+            .max_nodes(nodes)
+            .open_or_create()
+            .map_err(|e| ipc("cannot open or create the response event service", e))?;
+        let server = service
+            .server_builder()
+            .initial_max_slice_len(words)
+            .max_loaned_responses_per_request(1)
+            .create()
+            .map_err(|e| ipc("cannot create the server port", e))?;
+        let legacy_server = legacy_service
+            .server_builder()
+            .initial_max_slice_len(1)
+            .max_loaned_responses_per_request(1)
+            .create()
+            .map_err(|e| ipc("cannot create the server port of protocol version 1", e))?;
+        let wake = wake_service
+            .listener_builder()
+            .create()
+            .map_err(|e| ipc("cannot create the request listener", e))?;
+        let notifier = response_events
+            .notifier_builder()
+            .create()
+            .map_err(|e| ipc("cannot create the response notifier", e))?;
+        info!(
+            service = %settings.service,
+            prefix = %config.global.prefix,
+            max_clients = clients,
+            max_active_requests = settings.max_active_requests,
+            max_agents = l.max_agents,
+            max_k = l.max_k,
+            max_steps = l.max_steps,
+            max_history = l.max_history,
+            workers = settings.workers,
+            chunk_positions = settings.chunk_positions,
+            response_kib = words * 4 / 1024,
+            "iceoryx2 service ready"
+        );
+        // requests in progress at once: everything the clients can have in flight,
+        // within reason
+        let capacity = (clients * settings.max_active_requests).clamp(1, 64);
+        let scheduler = Scheduler::new(capacity, &l, settings.workers, settings.chunk_positions)
+            .map_err(StartError::Settings)?;
+        Ok(Daemon {
+            registry,
+            scheduler,
+            server,
+            legacy_server,
+            wake,
+            wakeups: Wakeups {
+                notifier,
+                keys: Vec::with_capacity(clients * 2),
+            },
+            service,
+            _legacy_service: legacy_service,
+            _wake_service: wake_service,
+            _response_events: response_events,
+            node,
+            reload_waiters: Vec::new(),
+            stats: Stats::default(),
+            cores: crate::settings::available_cores(),
+            #[cfg(feature = "zenoh")]
+            remote: None,
+            settings,
+        })
+    }
+
+    /// Also serve remote clients over zenoh: the same validation, limits and scheduler
+    /// as local clients (their requests take turns in the same rounds). zenoh runs on
+    /// its own threads and wakes the serving loop through the iceoryx2 request event;
+    /// returns what it serves on, for the ready line.
+    #[cfg(feature = "zenoh")]
+    pub fn serve_zenoh(
+        &mut self,
+        settings: &crate::zenoh::ZenohSettings,
+    ) -> Result<String, StartError> {
+        let waker = crate::zenoh::RequestWaker::open(
+            &self.settings.service,
+            self.settings.prefix.as_deref(),
+        )?;
+        let frontend =
+            crate::zenoh::ZenohFrontend::start(settings, &self.settings.limits, move || {
+                waker.wake()
+            })?;
+        let description = frontend.description().to_string();
+        info!(zid = %frontend.zid(), "serving remote clients on {description}");
+        self.remote = Some(Remote {
+            frontend,
+            buffers: Vec::new(),
+        });
+        Ok(description)
+    }
+
+    /// The line printed once the daemon serves (contains `ready`).
+    pub fn ready_line(&self) -> String {
+        let maps: Vec<String> = self
+            .registry
+            .entries()
+            .iter()
+            .map(|m| format!("{} ({} locations)", m.name, m.map.locations().len()))
+            .collect();
+        format!(
+            "cliffd ready: serving {} on service '{}' (iceoryx2 prefix '{}'), protocol v{}",
+            maps.join(", "),
+            self.settings.service,
+            self.node.config().global.prefix,
+            PROTOCOL_VERSION
+        )
+    }
+
+    /// Counters so far.
+    pub fn stats(&self) -> Stats {
+        Stats {
+            reloads: self.registry.reloads_done(),
+            parallel: self.scheduler.parallel_chunks,
+            ..self.stats
+        }
+    }
+
+    /// Names of the loaded maps.
+    pub fn map_names(&self) -> Vec<String> {
+        self.registry
+            .entries()
+            .iter()
+            .map(|m| m.name.clone())
+            .collect()
+    }
+
+    /// The largest sampling radius requests may use on each map (m), by name.
+    pub fn radius_limits(&self) -> Vec<(String, f64)> {
+        self.registry
+            .entries()
+            .iter()
+            .map(|m| (m.name.clone(), m.max_radius))
+            .collect()
+    }
+
+    pub(super) fn cleanup_dead_nodes(&mut self) {
+        let state = self.node.try_cleanup_dead_nodes();
+        if state.cleanups > 0 || state.failed_cleanups > 0 {
+            info!(
+                cleaned = state.cleanups,
+                failed = state.failed_cleanups,
+                "removed resources of dead processes"
+            );
+            self.wakeups.keys.clear();
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::settings::MapSpec;
+
+    #[test]
+    fn bad_settings_and_maps_are_refused_before_serving() {
+        let bad = |f: &dyn Fn(&mut Settings)| {
+            let mut s = Settings {
+                prefix: Some("cliff_unit_settings_".into()),
+                ..Settings::default()
+            };
+            f(&mut s);
+            Daemon::new(s).err().expect("refused").to_string()
+        };
+        assert!(bad(&|s| s.limits.max_k = 0).contains("at least 1"));
+        let e = bad(&|s| {
+            s.maps = vec![MapSpec {
+                name: "x".into(),
+                path: Some("/nonexistent/map.csv".into()),
+            }]
+        });
+        assert!(
+            e.contains("map 'x'") && e.contains("/nonexistent/map.csv"),
+            "{e}"
+        );
+        let e = bad(&|s| {
+            let m = MapSpec {
+                name: "x".into(),
+                path: None,
+            };
+            s.maps = vec![m.clone(), m];
+        });
+        assert!(e.contains("twice"), "{e}");
+    }
+}
