@@ -12,7 +12,7 @@ use pyo3::types::PyString;
 
 use crate::errors::{client_err, io_err};
 use crate::histories::add_histories;
-use crate::predict_signature::predict_fn;
+use crate::predict_args::predict_fn;
 use crate::prediction::Prediction;
 
 /// Whether this build has the zenoh client (`cliff_lhmp.HAS_ZENOH`).

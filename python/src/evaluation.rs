@@ -9,7 +9,8 @@ use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 
-use crate::map::{Map, parse_format, read_tracks_arg};
+use crate::args::{parse_format, read_tracks_arg};
+use crate::map::Map;
 
 /// The result of ``evaluate``.
 ///

@@ -1,23 +1,20 @@
-//! `cliff_lhmp.Map`, `build_map`, scoring and online updates.
+//! `cliff_lhmp.Map` (loading, saving, its arrays, scoring) and `build_map`.
+//!
+//! `Map.predict` is with the other in-process prediction in `predict.rs`.
 
 use std::path::PathBuf;
-use std::sync::{Arc, Mutex};
+use std::sync::Arc;
 
 use cliff::map::build::observations_from_tracks;
-use cliff::map::update::UpdateReport;
-use cliff::map::{
-    BuildParams, CliffMap, MapSet, OnlineMap as RustOnlineMap, ScoreParams, UpdateParams,
-};
-use cliff::tracks::{Format, Track, read_many};
+use cliff::map::{BuildParams, CliffMap, MapSet, ScoreParams};
 use numpy::ndarray::{Array1, Array2};
 use numpy::{IntoPyArray, PyArray1, PyArray2};
-use pyo3::exceptions::{PyTypeError, PyValueError};
+use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
-use pyo3::types::{PyDict, PyString};
+use pyo3::types::PyDict;
 
-use crate::errors::{io_err, map_err};
-use crate::predict_signature::predict_fn;
-use crate::prediction::{Prediction, predict_local};
+use crate::args::{parse_format, positive, read_tracks_arg};
+use crate::errors::map_err;
 
 /// A CLiFF-map: for each location, a mixture of the velocities people moved with there.
 ///
@@ -35,6 +32,7 @@ use crate::prediction::{Prediction, predict_local};
 ///     315
 #[pyclass(module = "cliff_lhmp", frozen)]
 pub struct Map {
+    /// The map (of a time-of-day set: its all-day map).
     pub inner: Arc<CliffMap>,
     /// The time-of-day set the map is the all-day map of (loaded from a set file).
     pub set: Option<Arc<MapSet>>,
@@ -47,64 +45,6 @@ impl Map {
             inner: map,
             set: None,
         }
-    }
-}
-
-/// Which format a `format=` argument names.
-pub fn parse_format(format: &str) -> PyResult<Format> {
-    format
-        .parse()
-        .map_err(|e: String| PyValueError::new_err(format!("format: {e}")))
-}
-
-/// The `tracks` argument: one path or a sequence of paths, read with `format`.
-pub fn read_tracks_arg(tracks: &Bound<'_, PyAny>, format: Format) -> PyResult<Vec<Track>> {
-    let paths: Vec<PathBuf> = if tracks.is_instance_of::<PyString>()
-        || tracks.hasattr("__fspath__")?
-    {
-        vec![tracks.extract()?]
-    } else {
-        tracks.extract().map_err(|_| {
-            PyTypeError::new_err(
-                "tracks: expected a path (str or os.PathLike) or a list of paths to trajectory files",
-            )
-        })?
-    };
-    if paths.is_empty() {
-        return Err(PyValueError::new_err("tracks: names no file"));
-    }
-    for p in &paths {
-        if !p.exists() {
-            return Err(pyo3::exceptions::PyFileNotFoundError::new_err(format!(
-                "tracks: {} does not exist",
-                p.display()
-            )));
-        }
-    }
-    read_many(&paths, format).map_err(|e| match &e {
-        cliff::tracks::DatasetError::Io { file, source } => io_err("tracks", file, source),
-        _ => PyValueError::new_err(format!("tracks: {e}")),
-    })
-}
-
-fn update_report<'py>(py: Python<'py>, r: &UpdateReport) -> PyResult<Bound<'py, PyDict>> {
-    let d = PyDict::new(py);
-    d.set_item("observations", r.observations)?;
-    d.set_item("updated", r.updated)?;
-    d.set_item("created", r.created)?;
-    d.set_item("added", r.added)?;
-    d.set_item("merged", r.merged)?;
-    d.set_item("pruned", r.pruned)?;
-    Ok(d)
-}
-
-fn positive(name: &str, v: f64) -> PyResult<f64> {
-    if v.is_finite() && v > 0.0 {
-        Ok(v)
-    } else {
-        Err(PyValueError::new_err(format!(
-            "{name}: {v} is not a positive number"
-        )))
     }
 }
 
@@ -344,21 +284,6 @@ impl Map {
     }
 }
 
-predict_fn! {
-    #[pymethods]
-    impl Map {
-        /// The same as ``cliff_lhmp.predict(self, histories, ...)``.
-        fn predict(
-            &self,
-            py: Python<'_>,
-            histories: &Bound<'_, PyAny>,
-            ..args: PredictArgs
-        ) -> PyResult<Prediction> {
-            predict_local(py, self, histories, &args)
-        }
-    }
-}
-
 /// build_map(tracks, *, format="thor", grid=1.0, radius=1.0) -> Map
 ///
 /// Build a CLiFF-map from recorded trajectories (as ``cliff map build``): mean shift
@@ -393,128 +318,4 @@ pub fn build_map(
         })
         .map_err(|e| PyValueError::new_err(format!("build_map: {e}")))?;
     Ok(Map::single(Arc::new(built.map)))
-}
-
-/// A map that learns online: each ``update`` decays the counts it holds and folds in
-/// a new batch of trajectories (as ``cliff map update``).
-///
-/// ``OnlineMap(map, *, count_scale=None, decay=0.5, radius=None)`` starts from
-/// ``map``, whose observation ratio 1 stands for ``count_scale`` moving samples (the
-/// busiest node's count when it was built; ``None``: the busiest node of the first
-/// update's batch, so that the map weighs as much as that node). ``decay`` in (0, 1]
-/// multiplies the counts at each update; ``radius`` (m) is how far a node collects
-/// samples (``None``: the grid step).
-///
-/// Example:
-///     >>> online = cliff_lhmp.OnlineMap(cliff_lhmp.Map.load("hour9.csv"))
-///     >>> online.update("hour10.csv", format="atc")["updated"]
-///     >>> online.map().save("hour10.cliff")
-#[pyclass(module = "cliff_lhmp", frozen)]
-pub struct OnlineMap {
-    inner: Mutex<OnlineState>,
-}
-
-struct OnlineState {
-    online: RustOnlineMap,
-    scale_set: bool,
-}
-
-#[pymethods]
-impl OnlineMap {
-    #[new]
-    #[pyo3(signature = (map, *, count_scale = None, decay = 0.5, radius = None))]
-    fn new(
-        map: &Bound<'_, Map>,
-        count_scale: Option<f64>,
-        decay: f64,
-        radius: Option<f64>,
-    ) -> PyResult<Self> {
-        if let Some(r) = radius {
-            positive("radius", r)?;
-        }
-        if let Some(c) = count_scale {
-            positive("count_scale", c)?;
-        }
-        if !(decay > 0.0 && decay <= 1.0) {
-            return Err(PyValueError::new_err(format!(
-                "decay: {decay} must be in (0, 1]"
-            )));
-        }
-        let params = UpdateParams {
-            decay,
-            radius,
-            ..UpdateParams::default()
-        };
-        let online = RustOnlineMap::from_map(&map.get().inner, count_scale.unwrap_or(1.0), params)
-            .map_err(|e| PyValueError::new_err(format!("OnlineMap: {e}")))?;
-        Ok(OnlineMap {
-            inner: Mutex::new(OnlineState {
-                online,
-                scale_set: count_scale.is_some(),
-            }),
-        })
-    }
-
-    /// update(tracks, *, format="thor") -> dict
-    ///
-    /// Fold a batch of trajectory files into the map. Returns what changed:
-    /// ``observations``, ``updated`` (locations that got samples), ``created`` (new
-    /// locations), ``added``, ``merged`` and ``pruned`` (components).
-    #[pyo3(signature = (tracks, *, format = "thor"))]
-    fn update<'py>(
-        &self,
-        py: Python<'py>,
-        tracks: &Bound<'py, PyAny>,
-        format: &str,
-    ) -> PyResult<Bound<'py, PyDict>> {
-        let format = parse_format(format)?;
-        let tracks = read_tracks_arg(tracks, format)?;
-        let report = py
-            .detach(|| {
-                let obs = observations_from_tracks(&tracks);
-                let mut st = self.inner.lock().unwrap_or_else(|p| p.into_inner());
-                if !st.scale_set {
-                    let s = st.online.busiest_node(&obs)?.max(1) as f64;
-                    st.online.set_count_scale(s)?;
-                    st.scale_set = true;
-                }
-                st.online.update(&obs)
-            })
-            .map_err(|e| PyValueError::new_err(format!("update: {e}")))?;
-        update_report(py, &report)
-    }
-
-    /// The moving samples an observation ratio of 1 stands for.
-    #[getter]
-    fn count_scale(&self) -> f64 {
-        self.inner
-            .lock()
-            .unwrap_or_else(|p| p.into_inner())
-            .online
-            .count_scale()
-    }
-
-    /// map() -> Map
-    ///
-    /// The current map (a snapshot: later updates do not change it).
-    fn map(&self, py: Python<'_>) -> PyResult<Map> {
-        let m = py
-            .detach(|| {
-                self.inner
-                    .lock()
-                    .unwrap_or_else(|p| p.into_inner())
-                    .online
-                    .to_map()
-            })
-            .map_err(|e| map_err("map", e))?;
-        Ok(Map::single(Arc::new(m)))
-    }
-
-    fn __len__(&self) -> usize {
-        self.inner
-            .lock()
-            .unwrap_or_else(|p| p.into_inner())
-            .online
-            .len()
-    }
 }

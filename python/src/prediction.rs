@@ -1,21 +1,10 @@
-//! In-process prediction (`cliff_lhmp.predict`) and its result type `Prediction`.
+//! `cliff_lhmp.Prediction`: the sampled trajectories a `predict` returns (in-process
+//! or from `cliffd`).
 
-use std::sync::Arc;
-
-use cliff::map::CliffMap;
-use cliff::predict::preset::cost_factor;
-use cliff::predict::{BatchMut, predict_into_with};
-use cliff_client::protocol::{
-    DecodeScratch, Limits, MAX_HISTORY, decode_request, scores_in_response,
-};
-use cliff_client::{Field, Rejection, Status};
 use numpy::ndarray::{Array2, Array4};
 use numpy::{IntoPyArray, PyArray2, PyArray4, PyArrayMethods};
-use pyo3::exceptions::{PyMemoryError, PyValueError};
+use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
-
-use crate::errors::local_rejection;
-use crate::histories::{PredictArgs, add_histories};
 
 /// Sampled future trajectories of a batch of people.
 ///
@@ -175,117 +164,4 @@ impl Prediction {
             self.dt
         )
     }
-}
-
-/// The in-process predictor: decode the request exactly as `cliffd` does, then predict
-/// straight into the output arrays with the GIL released (with the options and scores
-/// of [`cliff::predict::predict_with`], on the map of the time asked for when `map` is
-/// a time-of-day set).
-pub fn predict_local(
-    py: Python<'_>,
-    map: &crate::map::Map,
-    histories: &Bound<'_, PyAny>,
-    args: &PredictArgs<'_>,
-) -> PyResult<Prediction> {
-    // a time-of-day set: the slice of the time asked for, as cliffd picks it
-    let map: Arc<CliffMap> = match &map.set {
-        Some(set) => args.time.map_in(set).clone(),
-        None => map.inner.clone(),
-    };
-    let params = args.params()?;
-    let mut request = args.request("local")?;
-    add_histories(py, histories, &mut request)?;
-    let agents = request.agents();
-    let (k, steps) = (params.k, params.steps());
-    let limits = Limits {
-        max_agents: u32::try_from(agents).map_err(|_| {
-            PyValueError::new_err(format!(
-                "histories: {agents} people is too many for one call"
-            ))
-        })?,
-        // in-process there is no cost limit: `max_k` times the method's cost factor lets
-        // the decoder's cost check (agents x k x steps x factor) pass for this call
-        max_k: (params.k as u32).saturating_mul(
-            u32::try_from(cost_factor(&params, &args.options())).unwrap_or(u32::MAX),
-        ),
-        max_steps: u32::try_from(steps).unwrap_or(u32::MAX),
-        max_history: MAX_HISTORY,
-    };
-    // Rust-owned buffers, handed to NumPy without a copy afterwards; a batch too large
-    // for memory is a MemoryError, not an abort.
-    let too_large = || {
-        PyMemoryError::new_err(format!(
-            "{agents} people x {k} samples x {steps} steps is too large to allocate"
-        ))
-    };
-    let floats = agents
-        .checked_mul(k)
-        .and_then(|v| v.checked_mul(steps))
-        .and_then(|v| v.checked_mul(2))
-        .ok_or_else(too_large)?;
-    let mut positions: Vec<f32> = Vec::new();
-    positions
-        .try_reserve_exact(floats)
-        .map_err(|_| too_large())?;
-    positions.resize(floats, 0.0);
-    let mut lens: Vec<u32> = Vec::new();
-    lens.try_reserve_exact(agents * k)
-        .map_err(|_| too_large())?;
-    lens.resize(agents * k, 0);
-    // the scores asked for, or those of a method that scores its samples (improved)
-    let scored = scores_in_response(&params, &args.options());
-    let mut scores: Vec<f32> = Vec::new();
-    if scored {
-        scores
-            .try_reserve_exact(agents * k)
-            .map_err(|_| too_large())?;
-        scores.resize(agents * k, 0.0);
-    }
-    let header = *request.header();
-    let rows = request.rows();
-    let (pos_flat, lens_flat, scores_flat) = (
-        positions.as_mut_slice(),
-        lens.as_mut_slice(),
-        scores.as_mut_slice(),
-    );
-    py.detach(move || {
-        let mut scratch = DecodeScratch::new(&limits);
-        let d = decode_request(&header, rows, &limits, &mut scratch)?;
-        let out = BatchMut {
-            positions: as_points(pos_flat),
-            lens: lens_flat,
-        };
-        // the predictor fills every point (NaN past a sample's end)
-        predict_into_with(
-            &map,
-            scratch.states(),
-            &d.params,
-            &d.options,
-            out,
-            scores_flat,
-        )
-        .map_err(|_| Rejection {
-            status: Status::Internal,
-            agent: None,
-            row: None,
-            field: Field::None,
-            limit: 0,
-        })
-    })
-    .map_err(|r| local_rejection(&r))?;
-    Prediction::from_flat(
-        py,
-        (agents, k, steps),
-        positions,
-        &lens,
-        scored.then_some(scores),
-        params.dt,
-    )
-}
-
-/// A flat `[x0, y0, x1, y1, ...]` slice as points.
-fn as_points(flat: &mut [f32]) -> &mut [[f32; 2]] {
-    let (points, rest) = flat.as_chunks_mut::<2>();
-    debug_assert!(rest.is_empty());
-    points
 }

@@ -1,49 +1,43 @@
 //! `cliff`: CLiFF-maps and CLiFF-LHMP from the command line.
 //!
-//! A thin layer over the `cliff` library: each subcommand group lives in its own module.
+//! A thin layer over the `cliff` library: `main` parses the command line and hands
+//! each subcommand to its own file. The files:
+//!
+//! - `main.rs`: this map and `main`: parse, dispatch, report errors
+//! - `cli.rs`: the command tree (`cliff`, `cliff map ...`, `cliff plot ...`)
+//!
+//! One file per command, each with its arguments and its `run`:
+//!
+//! - `eval.rs`: `cliff eval`, methods evaluated on trajectory files
+//! - `predict.rs`: `cliff predict`, one person's samples as CSV
+//! - `demo.rs`: `cliff demo`, the guided tour from nothing to three pictures
+//! - `map/info.rs`, `map/convert.rs`, `map/build.rs`, `map/score.rs`,
+//!   `map/update.rs`: `cliff map info | convert | build | score | update`
+//! - `plot/map.rs`, `plot/predict.rs`, `plot/curves.rs`:
+//!   `cliff plot map | predict | curves`
+//!
+//! What the commands share (a command imports these, never another command):
+//!
+//! - `args.rs`: argument groups several commands flatten in (prediction, reading,
+//!   trajectory input, floor plan) and their value parsers
+//! - `clock.rs`: values of time (durations, clock offsets, times of day)
+//! - `load.rs`: reading maps, map sets, tracks, observations, floor plans, summaries
+//! - `person.rs`: one prepared person's prediction (`predict`, `plot predict`, `demo`)
 
+mod args;
+mod cli;
 mod clock;
-mod demo_cmd;
-mod eval_cmd;
-mod map_build_cmd;
-mod map_cmd;
-mod plot_cmd;
+mod demo;
+mod eval;
+mod load;
+mod map;
+mod person;
+mod plot;
+mod predict;
 
-use clap::{Parser, Subcommand};
+use clap::Parser;
 
-/// CLiFF-maps and long-term human motion prediction (CLiFF-LHMP).
-///
-/// Without --map, commands use the built-in demo scene: a hall with two crossing
-/// pedestrian flows, so everything runs on a fresh machine without data.
-#[derive(Parser)]
-#[command(name = "cliff", version, about, long_about = None, propagate_version = true)]
-struct Cli {
-    #[command(subcommand)]
-    command: Command,
-}
-
-#[derive(Subcommand)]
-enum Command {
-    /// Inspect, convert, build, score and update CLiFF-maps.
-    #[command(subcommand)]
-    Map(map_cmd::MapCommand),
-    /// Evaluate methods on trajectory files: ADE/FDE, top-k, per horizon, over seeds.
-    ///
-    /// Example (THÖR1, parity with the published implementation):
-    /// cliff eval --map ../shared/data/thor1/cliffmap.csv --tracks ../shared/data/thor1/exp-1-run-2.csv
-    ///   --format thor --protocol reference --radius 0.7071 --seeds 20 --out thor1-eval
-    Eval(eval_cmd::EvalArgs),
-    /// Predict the samples of one person of a trajectory file and write them as CSV.
-    Predict(eval_cmd::PredictArgs),
-    /// Draw pictures: a map as coloured arrows, a person's prediction, error curves.
-    #[command(subcommand)]
-    Plot(plot_cmd::PlotCommand),
-    /// The guided tour: predict and evaluate in the demo hall (or on --map/--tracks)
-    /// and write a map, a prediction and an error-curve picture as PNG.
-    ///
-    /// Example: cliff demo --out cliff-demo
-    Demo(demo_cmd::DemoArgs),
-}
+use cli::{Cli, Command, MapCommand, PlotCommand};
 
 fn main() -> std::process::ExitCode {
     // Like other Unix tools: end quietly when the reader of our output goes away
@@ -55,11 +49,17 @@ fn main() -> std::process::ExitCode {
     }
     let cli = Cli::parse();
     let result = match cli.command {
-        Command::Map(c) => map_cmd::run(c),
-        Command::Eval(a) => eval_cmd::run_eval(a),
-        Command::Predict(a) => eval_cmd::run_predict(a),
-        Command::Plot(c) => plot_cmd::run(c),
-        Command::Demo(a) => demo_cmd::run(a),
+        Command::Map(MapCommand::Info(a)) => map::info::run(a),
+        Command::Map(MapCommand::Convert(a)) => map::convert::run(a),
+        Command::Map(MapCommand::Build(a)) => map::build::run(a),
+        Command::Map(MapCommand::Score(a)) => map::score::run(a),
+        Command::Map(MapCommand::Update(a)) => map::update::run(a),
+        Command::Eval(a) => eval::run(a),
+        Command::Predict(a) => predict::run(a),
+        Command::Plot(PlotCommand::Map(a)) => plot::map::run(a),
+        Command::Plot(PlotCommand::Predict(a)) => plot::predict::run(a),
+        Command::Plot(PlotCommand::Curves(a)) => plot::curves::run(a),
+        Command::Demo(a) => demo::run(a),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

@@ -16,10 +16,9 @@ use cliff::predict::{Method, TrajectoryBatch};
 use cliff::tracks::Format;
 use cliff::tracks::scene::{SceneOptions, demo_tracks, tracks_csv};
 
-use crate::eval_cmd::{PredictionArgs, load_tracks, predict_case};
-use crate::map_cmd::load_map;
-use crate::plot_cmd::{FloorplanArgs, Spread, run_rows};
-
+use crate::args::{FloorplanArgs, PredictionArgs, Spread};
+use crate::load::{load_floorplan, load_map, load_tracks, run_rows};
+use crate::person::predict_case;
 /// Arguments of `cliff demo`.
 #[derive(Args, Debug)]
 pub struct DemoArgs {
@@ -105,7 +104,7 @@ fn pick_people(cases: &[Case], n: usize) -> Vec<&Case> {
 pub fn run(a: DemoArgs) -> Result<()> {
     let t0 = Instant::now();
     let map = load_map(a.map.as_ref())?;
-    let floorplan = a.frame.load(a.map.as_ref())?;
+    let floorplan = load_floorplan(&a.frame, a.map.as_ref())?;
     let synthetic = a.tracks.is_none();
     let tracks = match (&a.map, &a.tracks) {
         (_, Some(t)) => load_tracks(std::slice::from_ref(t), a.format)?,

@@ -1,64 +1,20 @@
-//! `cliff map build | score | update`: learning maps from trajectories.
+//! `cliff map build`: a CLiFF-map (or a time-of-day set) learned from trajectories.
 
 use std::path::PathBuf;
 use std::time::Instant;
 
 use anyhow::{Context, Result, bail};
 use clap::Args;
-use cliff::map::CliffMap;
-use cliff::map::build::{
-    BuildParams, EmParams, FitParams, MeanShift, Observation, build_map_with_progress,
-    observations_from_tracks, timed_observations_from_tracks,
-};
-use cliff::map::score::{ScoreParams, score as score_map, score_set};
+use cliff::map::build::{BuildParams, EmParams, FitParams, MeanShift, build_map_with_progress};
 use cliff::map::timeofday::build_map_set_with_progress;
-use cliff::map::update::{OnlineMap, UpdateParams};
 use cliff::map::{MapFormat, SliceParams, Smoothing};
 use cliff::motion::SpeedPrior;
-use cliff::tracks::{Format, Track};
+use cliff::tracks::Track;
 use indicatif::{ProgressBar, ProgressStyle};
 
+use crate::args::TrackArgs;
 use crate::clock;
-use crate::eval_cmd::{ReadArgs, load_tracks_with};
-
-/// Trajectory input shared by the learning commands.
-#[derive(Args, Debug)]
-pub struct TrackArgs {
-    /// Trajectory files (CSV without header: time, person_id, x, y, speed, motion_angle).
-    #[arg(long, num_args = 1.., required = true, value_name = "FILE")]
-    pub tracks: Vec<PathBuf>,
-    /// Trajectory file format: thor, atc, magni or csv.
-    #[arg(long, default_value = "atc", value_parser = parse_format)]
-    pub format: Format,
-    #[command(flatten)]
-    pub read: ReadArgs,
-}
-
-fn parse_format(s: &str) -> Result<Format, String> {
-    s.parse()
-}
-
-impl TrackArgs {
-    fn observations(&self) -> Result<(Vec<Observation>, Vec<Track>)> {
-        let tracks = load_tracks_with(&self.tracks, self.format, &self.read)
-            .context("reading trajectories")?;
-        let obs = observations_from_tracks(&tracks);
-        if obs.is_empty() {
-            bail!("the trajectory files hold no rows");
-        }
-        Ok((obs, tracks))
-    }
-
-    fn timed_observations(&self) -> Result<(Vec<Observation>, Vec<f64>, Vec<Track>)> {
-        let tracks = load_tracks_with(&self.tracks, self.format, &self.read)
-            .context("reading trajectories")?;
-        let (obs, times) = timed_observations_from_tracks(&tracks);
-        if obs.is_empty() {
-            bail!("the trajectory files hold no rows");
-        }
-        Ok((obs, times, tracks))
-    }
-}
+use crate::load::{observations, timed_observations};
 
 /// Options of `cliff map build`.
 #[derive(Args, Debug)]
@@ -180,14 +136,14 @@ fn with_threads<T: Send>(threads: usize, f: impl FnOnce() -> T + Send) -> Result
 }
 
 /// Run `cliff map build`.
-pub fn build(a: BuildArgs) -> Result<()> {
+pub fn run(a: BuildArgs) -> Result<()> {
     if let Some(length) = a.slice {
         return build_set(a, length);
     }
     let params = a.params();
     params.check()?;
     let t0 = Instant::now();
-    let (obs, tracks) = a.input.observations()?;
+    let (obs, tracks) = observations(&a.input)?;
     let t_read = t0.elapsed();
     let pb = progress_bar(a.quiet);
     let built = with_threads(a.threads, || {
@@ -287,7 +243,7 @@ fn build_set(a: BuildArgs, slice_length: f64) -> Result<()> {
     };
     slicing.check()?;
     let t0 = Instant::now();
-    let (obs, times, tracks) = a.input.timed_observations()?;
+    let (obs, times, tracks) = timed_observations(&a.input)?;
     let t_read = t0.elapsed();
     let pb = progress_bar(a.quiet);
     let part = std::sync::Mutex::new(String::new());
@@ -365,142 +321,5 @@ fn build_set(a: BuildArgs, slice_length: f64) -> Result<()> {
         t_read.as_secs_f64(),
         t_fit.as_secs_f64()
     );
-    Ok(())
-}
-
-/// Options of `cliff map score`.
-#[derive(Args, Debug)]
-pub struct ScoreArgs {
-    /// Map to score (.csv or .cliff). A time-of-day set scores each observation under
-    /// the map of its time's slice.
-    #[arg(long, value_name = "MAP")]
-    pub map: PathBuf,
-    /// Seconds added to the tracks' timestamps to get the local time of day that picks
-    /// a set's slice; default: the offset stored in the set.
-    #[arg(long, value_name = "DURATION", value_parser = clock::signed_duration, allow_hyphen_values = true)]
-    pub clock_offset: Option<f64>,
-    #[command(flatten)]
-    pub input: TrackArgs,
-    /// An observation is scored at the nearest location strictly within this
-    /// distance (m) [default: the map's grid step, 1 m for ATC, 0.5 m for THÖR].
-    #[arg(long)]
-    pub radius: Option<f64>,
-    /// Print one JSON object instead of a table.
-    #[arg(long)]
-    pub json: bool,
-}
-
-/// Run `cliff map score`.
-pub fn score(a: ScoreArgs) -> Result<()> {
-    let set = crate::map_cmd::load_map_set(Some(&a.map), a.clock_offset)?;
-    let params = ScoreParams {
-        radius: a.radius.unwrap_or(set.all_day().grid().step()),
-        ..ScoreParams::default()
-    };
-    let r = if set.is_sliced() {
-        let (obs, times, _) = a.input.timed_observations()?;
-        score_set(&set, &obs, &times, &params)?
-    } else {
-        let (obs, _) = a.input.observations()?;
-        score_map(set.all_day(), &obs, &params)?
-    };
-    if a.json {
-        println!("{}", serde_json::to_string(&r)?);
-    } else {
-        println!("map                  {}", a.map.display());
-        println!(
-            "observations         {} moving ({} standing skipped)",
-            r.observations, r.standing
-        );
-        println!(
-            "unmatched            {} (no location within {} m)",
-            r.unmatched, r.radius
-        );
-        println!("mean log-likelihood  {:.4}", r.mean_log_likelihood);
-        println!("median               {:.4}", r.median_log_likelihood);
-        println!(
-            "{:<21}{:.2} %",
-            format!("below {}", r.bad_below),
-            100.0 * r.share_below
-        );
-    }
-    Ok(())
-}
-
-/// Options of `cliff map update`.
-#[derive(Args, Debug)]
-pub struct UpdateArgs {
-    /// Map to update (.csv or .cliff).
-    #[arg(long, value_name = "MAP")]
-    pub map: PathBuf,
-    #[command(flatten)]
-    pub input: TrackArgs,
-    /// Output map (.csv or .cliff).
-    #[arg(long, value_name = "MAP")]
-    pub out: PathBuf,
-    /// Moving samples that an observation ratio of 1 stands for in MAP: the busiest
-    /// node's count, printed by `cliff map build` and by earlier updates. Without it
-    /// the map weighs as much as the busiest node of the new batch.
-    #[arg(long)]
-    pub count_scale: Option<f64>,
-    /// Decay of the map's effective counts before the batch is added, in (0, 1]
-    /// (1: all data weigh the same).
-    #[arg(long, default_value_t = 0.5)]
-    pub decay: f64,
-    /// Each node collects the observations within this distance (m) [default: the
-    /// map's grid step].
-    #[arg(long)]
-    pub radius: Option<f64>,
-    /// Largest number of components per location.
-    #[arg(long, default_value_t = 10)]
-    pub max_components: usize,
-}
-
-/// Run `cliff map update`.
-pub fn update(a: UpdateArgs) -> Result<()> {
-    let map = CliffMap::load(&a.map).with_context(|| format!("loading map {}", a.map.display()))?;
-    let (obs, _) = a.input.observations()?;
-    let params = UpdateParams {
-        decay: a.decay,
-        radius: a.radius,
-        max_components: a.max_components,
-        ..UpdateParams::default()
-    };
-    let mut online = OnlineMap::from_map(&map, a.count_scale.unwrap_or(1.0), params)?;
-    let scale = match a.count_scale {
-        Some(s) => s,
-        None => {
-            let s = online.busiest_node(&obs)?.max(1) as f64;
-            online.set_count_scale(s)?;
-            s
-        }
-    };
-    let t0 = Instant::now();
-    let r = online.update(&obs)?;
-    let out = online.to_map()?;
-    out.save(&a.out)
-        .with_context(|| format!("writing {}", a.out.display()))?;
-    println!("wrote {}", a.out.display());
-    println!("count scale in      {scale}");
-    println!("observations        {}", r.observations);
-    println!(
-        "locations           {} updated, {} new, {} in all",
-        r.updated,
-        r.created,
-        online.len()
-    );
-    println!(
-        "components          {} added, {} merged, {} pruned, {} in all",
-        r.added,
-        r.merged,
-        r.pruned,
-        out.info().components
-    );
-    println!(
-        "count scale out     {:.1} (pass --count-scale {:.1} to the next update)",
-        online.count_scale(),
-        online.count_scale()
-    );
-    println!("time                {:.2} s", t0.elapsed().as_secs_f64());
     Ok(())
 }

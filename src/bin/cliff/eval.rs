@@ -1,0 +1,130 @@
+//! `cliff eval`: evaluation of methods on trajectory files.
+
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::{Duration, Instant};
+
+use anyhow::{Context, Result, bail};
+use clap::Args;
+use cliff::eval::protocol::Protocol;
+use cliff::eval::{EvalConfig, evaluate, summary_table, table_horizons, write_reports};
+use cliff::predict::Method;
+use cliff::tracks::Format;
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+
+use crate::args::{PredictionArgs, ReadArgs};
+use crate::clock;
+use crate::load::{load_map_set, load_tracks_with};
+
+/// Arguments of `cliff eval`.
+#[derive(Args, Debug)]
+pub struct EvalArgs {
+    /// Map file (.csv or .cliff); omit for the built-in demo scene. With a time-of-day
+    /// set (`cliff map build --slice`), each person is predicted with the map of the
+    /// slice of their last observed row's time (plus the clock offset).
+    #[arg(long)]
+    pub map: Option<PathBuf>,
+    /// Seconds added to the tracks' timestamps to get the local time of day that picks
+    /// a set's slice (+9h, 32400, -5h); default: the offset stored in the set.
+    #[arg(long, value_name = "DURATION", value_parser = clock::signed_duration, allow_hyphen_values = true)]
+    pub clock_offset: Option<f64>,
+    /// Trajectory files to evaluate on.
+    #[arg(long, required = true, num_args = 1..)]
+    pub tracks: Vec<PathBuf>,
+    /// Trajectory file format: thor, atc, magni (THÖR-MAGNI, header row) or csv (header
+    /// row, see --columns).
+    #[arg(long, default_value = "thor")]
+    pub format: Format,
+    #[command(flatten)]
+    pub read: ReadArgs,
+    #[command(flatten)]
+    pub prediction: PredictionArgs,
+    /// Seeds per stochastic method; the summary holds means and standard deviations over them.
+    #[arg(long, default_value_t = 1)]
+    pub seeds: usize,
+    /// Methods to compare on the same people, comma-separated: cliff, cvm, improved
+    /// (CLiFF-LHMP with the project's preset: its own beta and options).
+    #[arg(long, value_delimiter = ',', default_value = "cliff,cvm")]
+    pub methods: Vec<Method>,
+    /// Output folder for summary.csv and per_person.csv.
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+}
+
+/// A progress bar that appears only once the run has taken more than a second.
+struct LateProgress {
+    bar: ProgressBar,
+    start: Instant,
+    shown: AtomicBool,
+}
+
+impl LateProgress {
+    fn new(len: u64, what: &str) -> Self {
+        let bar = ProgressBar::with_draw_target(Some(len), ProgressDrawTarget::hidden());
+        bar.set_style(
+            ProgressStyle::with_template("{msg} [{bar:40}] {pos}/{len} ({eta} left)")
+                .expect("static template")
+                .progress_chars("=> "),
+        );
+        bar.set_message(what.to_string());
+        Self {
+            bar,
+            start: Instant::now(),
+            shown: AtomicBool::new(false),
+        }
+    }
+
+    fn tick(&self) {
+        self.bar.inc(1);
+        if !self.shown.load(Ordering::Relaxed)
+            && self.start.elapsed() > Duration::from_secs(1)
+            && !self.shown.swap(true, Ordering::Relaxed)
+        {
+            self.bar.set_draw_target(ProgressDrawTarget::stderr());
+        }
+    }
+}
+
+/// Run `cliff eval`.
+pub fn run(a: EvalArgs) -> Result<()> {
+    if a.methods.is_empty() {
+        bail!("--methods names no method");
+    }
+    let maps = load_map_set(a.map.as_ref(), a.clock_offset)?;
+    let tracks = load_tracks_with(&a.tracks, a.format, &a.read)?;
+    let cfg = EvalConfig {
+        settings: a.prediction.settings(),
+        params: a.prediction.params(Method::Cliff, 0),
+        seeds: a.seeds.max(1),
+        methods: a.methods.clone(),
+        options: a.prediction.options(false),
+    };
+    let progress = LateProgress::new(tracks.len() as u64, "evaluating");
+    let t0 = Instant::now();
+    let report = evaluate(&maps, &tracks, &cfg, &|| progress.tick()).context("evaluation")?;
+    progress.bar.finish_and_clear();
+    println!(
+        "{} of {} people evaluated ({} protocol, {} seed(s), {:.1} s)",
+        if cfg.settings.protocol == Protocol::Windows {
+            format!("{} windows", report.people_evaluated)
+        } else {
+            report.people_evaluated.to_string()
+        },
+        report.people_total,
+        cfg.settings.protocol,
+        cfg.seeds,
+        t0.elapsed().as_secs_f64()
+    );
+    let horizons = table_horizons(cfg.settings.horizon, cfg.settings.dt);
+    print!("{}", summary_table(&report.summary, &horizons));
+    if let Some(dir) = &a.out {
+        write_reports(&report, dir)
+            .with_context(|| format!("writing reports to {}", dir.display()))?;
+        println!(
+            "wrote {} and {}",
+            dir.join("summary.csv").display(),
+            dir.join("per_person.csv").display()
+        );
+    }
+    Ok(())
+}

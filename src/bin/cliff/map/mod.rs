@@ -1,0 +1,7 @@
+//! `cliff map ...`: one file per subcommand.
+
+pub mod build;
+pub mod convert;
+pub mod info;
+pub mod score;
+pub mod update;

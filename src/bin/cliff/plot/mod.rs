@@ -1,0 +1,5 @@
+//! `cliff plot ...`: one file per subcommand.
+
+pub mod curves;
+pub mod map;
+pub mod predict;
