@@ -27,52 +27,40 @@ const CORE_LAYERS: &[&[&str]] = &[
     &["plot"],
 ];
 
-/// One crate's sources: the root file and the directory its modules live in.
+/// One crate's sources: a name for messages and its root file.
 struct CrateSrc {
-    name: &'static str,
+    name: String,
     root: PathBuf,
 }
 
+/// The packages of the workspace whose sources are checked.
+const PACKAGES: &[&str] = &[".", "client", "service", "python", "ros2"];
+
+/// Every crate of the workspace's packages: the library and each binary
+/// (`src/main.rs`, `src/bin/NAME.rs`, `src/bin/NAME/main.rs`); the core library first.
 fn crates() -> Vec<CrateSrc> {
     let top = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let mut out = vec![
-        CrateSrc {
-            name: "cliff",
-            root: top.join("src/lib.rs"),
-        },
-        CrateSrc {
-            name: "cliff (bin cliff)",
-            root: top.join("src/bin/cliff/main.rs"),
-        },
-        CrateSrc {
-            name: "cliff-client",
-            root: top.join("client/src/lib.rs"),
-        },
-        CrateSrc {
-            name: "cliff-bench",
-            root: top.join("client/src/bin/cliff-bench.rs"),
-        },
-        CrateSrc {
-            name: "cliff-service",
-            root: top.join("service/src/lib.rs"),
-        },
-        CrateSrc {
-            name: "cliffd",
-            root: top.join("service/src/main.rs"),
-        },
-        CrateSrc {
-            name: "cliff-python",
-            root: top.join("python/src/lib.rs"),
-        },
-    ];
-    for (name, root) in [
-        ("cliff-ros2", "ros2/src/lib.rs"),
-        ("cliff-ros2 (bin)", "ros2/src/main.rs"),
-    ] {
-        if top.join(root).exists() {
+    let mut out = Vec::new();
+    for pkg in PACKAGES {
+        let src = top.join(pkg).join("src");
+        if !src.is_dir() {
+            continue;
+        }
+        let mut roots = vec![src.join("lib.rs"), src.join("main.rs")];
+        if let Ok(dir) = std::fs::read_dir(src.join("bin")) {
+            let mut bins: Vec<PathBuf> = dir
+                .flatten()
+                .map(|e| e.path())
+                .map(|p| if p.is_dir() { p.join("main.rs") } else { p })
+                .filter(|p| p.extension().is_some_and(|x| x == "rs"))
+                .collect();
+            bins.sort();
+            roots.extend(bins);
+        }
+        for root in roots.into_iter().filter(|r| r.exists()) {
             out.push(CrateSrc {
-                name,
-                root: top.join(root),
+                name: rel(&root),
+                root,
             });
         }
     }
@@ -602,7 +590,7 @@ fn no_files_import_each_other_in_a_circle() {
     let mut found = Vec::new();
     for c in crates() {
         for circle in circles(&graph(&c)) {
-            found.push(format!("{}: {circle}", c.name));
+            found.push(format!("{} (crate root): {circle}", c.name));
         }
     }
     assert!(
