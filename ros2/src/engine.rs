@@ -123,22 +123,41 @@ impl Engine {
         }
     }
 
-    /// One cycle: forget stale tracks, predict the others, build the messages.
-    pub fn cycle(&mut self, now: Instant) -> Output {
-        let mut out = Output::default();
-        self.keeper.expire(now);
-        self.keeper.take_ended(&mut self.ended);
+    fn header(&self) -> Header {
         let newest = self.keeper.newest();
-        let header = Header {
+        Header {
             stamp: Time::from_secs_f64(if newest.is_finite() { newest } else { 0.0 }),
             frame_id: self.frame.clone(),
-        };
+        }
+    }
+
+    /// Forget stale tracks and delete their markers (no prediction): what an idle
+    /// on-input node does between messages.
+    pub fn expire(&mut self, now: Instant) -> MarkerArray {
+        let mut out = MarkerArray::default();
+        self.expire_into(now, &mut out);
+        out
+    }
+
+    fn expire_into(&mut self, now: Instant, out: &mut MarkerArray) {
+        self.keeper.expire(now);
+        self.keeper.take_ended(&mut self.ended);
+        let header = self.header();
         let k = self.predictor.settings().params.k;
         for &n in &self.ended {
             for s in 0..k {
-                out.markers.markers.push(markers::delete(&header, markers::sample_id(n, k, s)));
+                out.markers.push(markers::delete(&header, markers::sample_id(n, k, s)));
             }
         }
+    }
+
+    /// One cycle: forget stale tracks, predict the others, build the messages.
+    pub fn cycle(&mut self, now: Instant) -> Output {
+        let mut out = Output::default();
+        self.expire_into(now, &mut out.markers);
+        let newest = self.keeper.newest();
+        let header = self.header();
+        let k = self.predictor.settings().params.k;
         if !newest.is_finite() {
             return out;
         }

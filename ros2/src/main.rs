@@ -106,7 +106,7 @@ fn main() -> Result<()> {
     let args = <Args as clap::FromArgMatches>::from_arg_matches(&args)?;
     tracing_subscriber::fmt()
         .with_env_filter(
-            tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| "info".into()),
+            tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| "info,rustdds=error,ros2_client=warn".into()),
         )
         .with_writer(std::io::stderr)
         .init();

@@ -17,8 +17,17 @@ use crate::predictor::Predictor;
 use crate::settings::Settings;
 use crate::tracks::Keeper;
 
-fn topic_name(name: &str) -> Result<Name> {
-    Name::parse(name).map_err(|e| anyhow::anyhow!("topic name '{name}': {e:?}"))
+/// The absolute name of topic `name` in `namespace` (a relative name resolves in it).
+pub fn resolve(namespace: &str, name: &str) -> String {
+    if name.starts_with('/') {
+        name.to_string()
+    } else {
+        format!("{}/{name}", namespace.trim_end_matches('/'))
+    }
+}
+
+fn topic_name(full: &str) -> Result<Name> {
+    Name::parse(full).map_err(|e| anyhow::anyhow!("topic name '{full}': {e:?}"))
 }
 
 fn type_name((pkg, ty): msg::TypeName) -> MessageTypeName {
@@ -71,7 +80,9 @@ pub fn run(settings: Settings, domain_id: u16) -> Result<()> {
         .durability(Durability::TransientLocal)
         .history(History::KeepLast { depth: 1 });
 
-    let t = &settings.topics;
+    let t: std::collections::BTreeMap<&str, String> =
+        settings.topics.iter().map(|(k, v)| (*k, resolve(&settings.namespace, v))).collect();
+    let t = &t;
     let people_topic = node
         .create_topic(&topic_name(&t["people"])?, type_name(msg::PEOPLE), &input_qos)
         .map_err(|e| anyhow::anyhow!("topic {}: {e:?}", t["people"]))?;
@@ -177,14 +188,30 @@ pub fn run(settings: Settings, domain_id: u16) -> Result<()> {
                 None => {
                     // on-input mode: still forget stale tracks (and delete their markers)
                     if !got {
-                        let out = engine.cycle(now);
-                        if !out.markers.markers.is_empty() {
-                            let _ = marker_pub.publish(out.markers);
+                        let deletions = engine.expire(now);
+                        if !deletions.markers.is_empty() {
+                            let _ = marker_pub.publish(deletions);
                         }
                     }
                     next = now + Duration::from_millis(100);
                 }
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn relative_names_resolve_in_the_namespace() {
+        assert_eq!(resolve("/", "people"), "/people");
+        assert_eq!(resolve("/robot", "cliff/markers"), "/robot/cliff/markers");
+        assert_eq!(resolve("/robot/", "people"), "/robot/people");
+        assert_eq!(resolve("/robot", "/people"), "/people");
+        let n = topic_name("/robot/cliff/markers").unwrap();
+        let node = NodeName::new("/robot", "x").unwrap();
+        assert_eq!(n.to_dds_name("rt", &node, ""), "rt/robot/cliff/markers");
     }
 }

@@ -1,7 +1,7 @@
 # Source me: the environment in which rclpy finds the venv's ROS 2 and our message packages.
-here="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
-. "$here/.venv/bin/activate"
-ws="$here/.ws/install"
+_cliff_ros2="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+. "$_cliff_ros2/.venv/bin/activate"
+ws="$_cliff_ros2/.ws/install"
 sp=lib/python3.11/site-packages
 export PYTHONPATH="$ws/people_msgs/$sp:$ws/cliff_msgs/$sp${PYTHONPATH:+:$PYTHONPATH}"
 export LD_LIBRARY_PATH="$ws/people_msgs/lib:$ws/cliff_msgs/lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}"
