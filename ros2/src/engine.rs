@@ -51,7 +51,12 @@ pub const MIN_HISTORY: usize = 2;
 
 impl Engine {
     /// An engine over `keeper` and `predictor`, warning at most once per `warn_period`.
-    pub fn new(keeper: Keeper, predictor: Predictor, style: MarkerStyle, warn_period: Duration) -> Self {
+    pub fn new(
+        keeper: Keeper,
+        predictor: Predictor,
+        style: MarkerStyle,
+        warn_period: Duration,
+    ) -> Self {
         let frame = keeper.settings().frame_id.clone();
         Engine {
             keeper,
@@ -94,7 +99,9 @@ impl Engine {
         keeper.apply(
             frame,
             stamp,
-            msg.people.iter().map(|p| (p.name.as_str(), p.position.x, p.position.y)),
+            msg.people
+                .iter()
+                .map(|p| (p.name.as_str(), p.position.x, p.position.y)),
             now,
             |k| skipped[k.index()] = true,
         );
@@ -146,7 +153,8 @@ impl Engine {
         let k = self.predictor.settings().params.k;
         for &n in &self.ended {
             for s in 0..k {
-                out.markers.push(markers::delete(&header, markers::sample_id(n, k, s)));
+                out.markers
+                    .push(markers::delete(&header, markers::sample_id(n, k, s)));
             }
         }
     }
@@ -173,7 +181,9 @@ impl Engine {
         let tracks = self.keeper.tracks();
         let selected = &self.selected;
         let result = self.predictor.predict(
-            selected.iter().map(|&i| tracks[i].window(seconds).map(|o| (o.t, o.x, o.y))),
+            selected
+                .iter()
+                .map(|&i| tracks[i].window(seconds).map(|o| (o.t, o.x, o.y))),
             newest,
         );
         let samples = match result {
@@ -218,21 +228,28 @@ impl Engine {
                 track_id: t.id.clone(),
                 stamp: Time::from_secs_f64(last.t),
                 history: t.window(seconds).len() as u32,
-                origin: Point2 { x: origin[0], y: origin[1] },
+                origin: Point2 {
+                    x: origin[0],
+                    y: origin[1],
+                },
                 lengths: Vec::with_capacity(k),
                 points: Vec::with_capacity(k * samples.steps),
                 scores: Vec::new(),
             };
             let scored = !samples.scores.is_empty();
             if scored {
-                person.scores.extend((0..k).map(|s| samples.score(a, s).unwrap_or(f32::NAN)));
+                person
+                    .scores
+                    .extend((0..k).map(|s| samples.score(a, s).unwrap_or(f32::NAN)));
                 markers::score_alphas(&person.scores, &mut self.alphas);
             }
             let color = markers::track_color(t.number);
             for s in 0..k {
                 let pts = samples.sample(a, s);
                 person.lengths.push(pts.len() as u32);
-                person.points.extend(pts.iter().map(|q| Point2 { x: q[0], y: q[1] }));
+                person
+                    .points
+                    .extend(pts.iter().map(|q| Point2 { x: q[0], y: q[1] }));
                 let mut c = color;
                 if scored {
                     c.a = self.alphas[s];
@@ -263,17 +280,28 @@ mod tests {
 
     fn people(stamp: f64, who: &[(&str, f64, f64)]) -> People {
         People {
-            header: Header { stamp: Time::from_secs_f64(stamp), frame_id: "map".into() },
+            header: Header {
+                stamp: Time::from_secs_f64(stamp),
+                frame_id: "map".into(),
+            },
             people: who
                 .iter()
-                .map(|&(n, x, y)| Person { name: n.into(), position: Point { x, y, z: 0.0 }, ..Person::default() })
+                .map(|&(n, x, y)| Person {
+                    name: n.into(),
+                    position: Point { x, y, z: 0.0 },
+                    ..Person::default()
+                })
                 .collect(),
         }
     }
 
     fn engine(scores: bool) -> Engine {
         let settings = PredictSettings {
-            params: Params { k: 4, horizon: 2.0, ..Params::default() },
+            params: Params {
+                k: 4,
+                horizon: 2.0,
+                ..Params::default()
+            },
             scores,
             ..PredictSettings::default()
         };
@@ -297,9 +325,20 @@ mod tests {
         e.on_people(&people(0.4, &[("a", -9.5, 0.5)]), now);
         let o = e.cycle(now);
         let p = o.predictions.unwrap();
-        assert_eq!((p.people.len(), p.k, p.method.as_str(), p.map.as_str()), (1, 4, "cliff", "demo"));
+        assert_eq!(
+            (p.people.len(), p.k, p.method.as_str(), p.map.as_str()),
+            (1, 4, "cliff", "demo")
+        );
         let a = &p.people[0];
-        assert_eq!((a.track_id.as_str(), a.history, a.lengths.len(), a.scores.len()), ("a", 2, 4, 4));
+        assert_eq!(
+            (
+                a.track_id.as_str(),
+                a.history,
+                a.lengths.len(),
+                a.scores.len()
+            ),
+            ("a", 2, 4, 4)
+        );
         assert_eq!(a.points.len() as u32, a.lengths.iter().sum::<u32>());
         assert_eq!(a.origin, Point2 { x: -9.5, y: 0.5 });
         assert_eq!(p.header.stamp, Time::from_secs_f64(0.4));
@@ -307,7 +346,12 @@ mod tests {
         // ended tracks get their markers deleted
         e.on_people(&people(3.0, &[("b", 0.1, 0.0)]), now);
         let o = e.cycle(now);
-        let deletes = o.markers.markers.iter().filter(|m| m.action == crate::msg::Marker::DELETE).count();
+        let deletes = o
+            .markers
+            .markers
+            .iter()
+            .filter(|m| m.action == crate::msg::Marker::DELETE)
+            .count();
         assert_eq!(deletes, 4);
     }
 
@@ -318,7 +362,16 @@ mod tests {
             let now = Instant::now();
             for i in 0..5 {
                 let t = i as f64 * 0.4;
-                e.on_people(&people(t, &[("a", -10.0 + 0.5 * i as f64, 0.5), ("b", 2.0, -1.0 + 0.4 * i as f64)]), now);
+                e.on_people(
+                    &people(
+                        t,
+                        &[
+                            ("a", -10.0 + 0.5 * i as f64, 0.5),
+                            ("b", 2.0, -1.0 + 0.4 * i as f64),
+                        ],
+                    ),
+                    now,
+                );
             }
             e.cycle(now).predictions.unwrap()
         };

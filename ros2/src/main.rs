@@ -9,34 +9,88 @@ use serde_yaml_ng::Mapping;
 
 /// One line per parameter, for --help (the defaults are printed beside them).
 const PARAM_HELP: &[(&str, &str)] = &[
-    ("map_file", "map to predict from in-process (.csv, .cliff, a time-of-day set, or 'demo'); empty: ask cliffd"),
+    (
+        "map_file",
+        "map to predict from in-process (.csv, .cliff, a time-of-day set, or 'demo'); empty: ask cliffd",
+    ),
     ("daemon_map", "the map's name at cliffd"),
     ("daemon_service", "cliffd's iceoryx2 service"),
     ("daemon_deadline", "seconds one cliffd call may take"),
-    ("map_markers_file", "map file drawn as arrows when predicting through cliffd"),
-    ("map_frame", "the map's frame id; input in another frame is skipped unless transformed"),
-    ("static_transforms", "list of \"frame x y yaw\": frame -> map_frame (m, m, rad)"),
-    ("rate", "predictions per second; 0: after every input message"),
+    (
+        "map_markers_file",
+        "map file drawn as arrows when predicting through cliffd",
+    ),
+    (
+        "map_frame",
+        "the map's frame id; input in another frame is skipped unless transformed",
+    ),
+    (
+        "static_transforms",
+        "list of \"frame x y yaw\": frame -> map_frame (m, m, rad)",
+    ),
+    (
+        "rate",
+        "predictions per second; 0: after every input message",
+    ),
     ("method", "cliff, cvm or improved"),
     ("k", "samples per person"),
     ("horizon", "prediction horizon (s)"),
     ("dt", "time step of the samples (s)"),
-    ("beta", "kernel beta (how strongly the heading turns to the map)"),
+    (
+        "beta",
+        "kernel beta (how strongly the heading turns to the map)",
+    ),
     ("radius", "sampling radius (m)"),
-    ("seed", "seed of every cycle's random generator (request c of 32 people: seed + c)"),
-    ("scores", "score each sample (log-likelihood; markers shaded by it)"),
-    ("time_of_day", "map of a time-of-day set: stamp (stamp + clock_offset), all-day, now"),
-    ("clock_offset", "seconds added to stamps to get the map's clock"),
-    ("history", "observations kept per track (at most 64, cliffd's limit)"),
-    ("history_seconds", "seconds of a track's newest observations predicted from (0: all kept)"),
-    ("track_timeout", "forget a track after this many seconds without an observation"),
-    ("max_tracks", "at most this many tracks (new ids beyond are skipped and counted)"),
-    ("input_reliability", "best_effort (matches reliable and best-effort publishers) or reliable"),
+    (
+        "seed",
+        "seed of every cycle's random generator (request c of 32 people: seed + c)",
+    ),
+    (
+        "scores",
+        "score each sample (log-likelihood; markers shaded by it)",
+    ),
+    (
+        "time_of_day",
+        "map of a time-of-day set: stamp (stamp + clock_offset), all-day, now",
+    ),
+    (
+        "clock_offset",
+        "seconds added to stamps to get the map's clock",
+    ),
+    (
+        "history",
+        "observations kept per track (at most 64, cliffd's limit)",
+    ),
+    (
+        "history_seconds",
+        "seconds of a track's newest observations predicted from (0: all kept)",
+    ),
+    (
+        "track_timeout",
+        "forget a track after this many seconds without an observation",
+    ),
+    (
+        "max_tracks",
+        "at most this many tracks (new ids beyond are skipped and counted)",
+    ),
+    (
+        "input_reliability",
+        "best_effort (matches reliable and best-effort publishers) or reliable",
+    ),
     ("marker_width", "line width of the sample markers (m)"),
-    ("marker_lifetime", "seconds a sample marker stays without refresh"),
-    ("map_arrow_seconds", "map arrows are this many seconds of their mean speed long"),
+    (
+        "marker_lifetime",
+        "seconds a sample marker stays without refresh",
+    ),
+    (
+        "map_arrow_seconds",
+        "map arrows are this many seconds of their mean speed long",
+    ),
     ("warn_period", "seconds between two warnings of one kind"),
-    ("use_sim_time", "accepted for launch files; the header stamps are always used"),
+    (
+        "use_sim_time",
+        "accepted for launch files; the header stamps are always used",
+    ),
 ];
 
 fn after_help() -> String {
@@ -45,15 +99,34 @@ fn after_help() -> String {
         "Parameters (-p NAME:=VALUE, or a --params-file of ROS 2's shape: `/**: {ros__parameters: {k: 20}}`):\n",
     );
     for (name, help) in PARAM_HELP {
-        let d = defaults.get(*name).map(|v| serde_yaml_ng::to_string(v).unwrap_or_default()).unwrap_or_default();
+        let d = defaults
+            .get(*name)
+            .map(|v| serde_yaml_ng::to_string(v).unwrap_or_default())
+            .unwrap_or_default();
         s.push_str(&format!("  {name:<18} {help} [default: {}]\n", d.trim()));
     }
     s.push_str("\nTopics (relative names resolve in the namespace; -r FROM:=TO remaps):\n");
     let types = [
-        ("people", "people_msgs/msg/People", "input: name = track id, header stamp and frame"),
-        ("predictions", "cliff_msgs/msg/Predictions", "output: k samples per person"),
-        ("markers", "visualization_msgs/msg/MarkerArray", "output: a line strip per sample"),
-        ("map_markers", "visualization_msgs/msg/MarkerArray", "output, latched: the map as arrows"),
+        (
+            "people",
+            "people_msgs/msg/People",
+            "input: name = track id, header stamp and frame",
+        ),
+        (
+            "predictions",
+            "cliff_msgs/msg/Predictions",
+            "output: k samples per person",
+        ),
+        (
+            "markers",
+            "visualization_msgs/msg/MarkerArray",
+            "output: a line strip per sample",
+        ),
+        (
+            "map_markers",
+            "visualization_msgs/msg/MarkerArray",
+            "output, latched: the map as arrows",
+        ),
     ];
     for ((_, topic), (_, ty, use_)) in TOPICS.iter().zip(types) {
         s.push_str(&format!("  {topic:<18} {ty:<36} {use_}\n"));
@@ -101,12 +174,15 @@ struct Args {
 
 fn main() -> Result<()> {
     // `ros2 launch` style: drop --ros-args and the closing --
-    let argv: Vec<String> = std::env::args().filter(|a| a != "--ros-args" && a != "--").collect();
+    let argv: Vec<String> = std::env::args()
+        .filter(|a| a != "--ros-args" && a != "--")
+        .collect();
     let args = Args::command_with_help().get_matches_from(argv);
     let args = <Args as clap::FromArgMatches>::from_arg_matches(&args)?;
     tracing_subscriber::fmt()
         .with_env_filter(
-            tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| "info,rustdds=error,ros2_client=warn".into()),
+            tracing_subscriber::EnvFilter::try_from_default_env()
+                .unwrap_or_else(|_| "info,rustdds=error,ros2_client=warn".into()),
         )
         .with_writer(std::io::stderr)
         .init();
@@ -135,7 +211,11 @@ fn main() -> Result<()> {
     }
     let params = settings::parameters(file, &overrides)?;
     if args.print_params {
-        let full = if namespace == "/" { format!("/{name}") } else { format!("{namespace}/{name}") };
+        let full = if namespace == "/" {
+            format!("/{name}")
+        } else {
+            format!("{namespace}/{name}")
+        };
         let mut inner = Mapping::new();
         inner.insert("ros__parameters".into(), serde_yaml_ng::to_value(&params)?);
         let mut top = Mapping::new();
@@ -151,7 +231,15 @@ fn main() -> Result<()> {
             _ => 0,
         },
     };
-    cliff_ros2::node::run(Settings { name, namespace, params, topics }, domain_id)
+    cliff_ros2::node::run(
+        Settings {
+            name,
+            namespace,
+            params,
+            topics,
+        },
+        domain_id,
+    )
 }
 
 trait CommandWithHelp {
@@ -171,7 +259,12 @@ mod tests {
     #[test]
     fn every_parameter_has_a_help_line() {
         let v = serde_yaml_ng::to_value(Parameters::default()).unwrap();
-        let keys: Vec<String> = v.as_mapping().unwrap().keys().map(|k| k.as_str().unwrap().to_string()).collect();
+        let keys: Vec<String> = v
+            .as_mapping()
+            .unwrap()
+            .keys()
+            .map(|k| k.as_str().unwrap().to_string())
+            .collect();
         let helped: Vec<&str> = PARAM_HELP.iter().map(|(n, _)| *n).collect();
         assert_eq!(keys, helped);
     }

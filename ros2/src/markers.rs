@@ -3,7 +3,9 @@
 
 use cliff::map::CliffMap;
 
-use crate::msg::{ColorRGBA, Duration, Header, Marker, MarkerArray, Point, Pose, Quaternion, Vector3};
+use crate::msg::{
+    ColorRGBA, Duration, Header, Marker, MarkerArray, Point, Pose, Quaternion, Vector3,
+};
 
 /// Namespace of the prediction line strips.
 pub const NS_PREDICTIONS: &str = "cliff_predictions";
@@ -20,16 +22,29 @@ pub fn track_color(number: u32) -> ColorRGBA {
     let (r, g, b) = hsv(number as f64 * 0.618_033_988_75);
     // a little lighter than pure hues, readable on RViz's dark grey
     let l = |c: f32| 0.25 + 0.75 * c;
-    ColorRGBA { r: l(r), g: l(g), b: l(b), a: 0.8 }
+    ColorRGBA {
+        r: l(r),
+        g: l(g),
+        b: l(b),
+        a: 0.8,
+    }
 }
 
 /// Opacity of each sample from its score (log-likelihood): the most likely opaque,
 /// the others by `exp(score - best)`, never below 0.1. NaN scores get 0.1.
 pub fn score_alphas(scores: &[f32], out: &mut Vec<f32>) {
     out.clear();
-    let best = scores.iter().copied().filter(|s| s.is_finite()).fold(f32::NEG_INFINITY, f32::max);
+    let best = scores
+        .iter()
+        .copied()
+        .filter(|s| s.is_finite())
+        .fold(f32::NEG_INFINITY, f32::max);
     for &s in scores {
-        let a = if s.is_finite() && best.is_finite() { (s - best).exp() } else { 0.0 };
+        let a = if s.is_finite() && best.is_finite() {
+            (s - best).exp()
+        } else {
+            0.0
+        };
         out.push(a.clamp(0.0, 1.0) * 0.9 + 0.1);
     }
 }
@@ -47,13 +62,20 @@ pub struct MarkerStyle {
 
 impl Default for MarkerStyle {
     fn default() -> Self {
-        MarkerStyle { width: 0.03, lifetime: 1.0, z: 0.0 }
+        MarkerStyle {
+            width: 0.03,
+            lifetime: 1.0,
+            z: 0.0,
+        }
     }
 }
 
 fn duration(s: f64) -> Duration {
     let t = crate::msg::Time::from_secs_f64(s.max(0.0));
-    Duration { sec: t.sec, nanosec: t.nanosec }
+    Duration {
+        sec: t.sec,
+        nanosec: t.nanosec,
+    }
 }
 
 /// A line strip of one sample: the origin, then the points.
@@ -73,13 +95,21 @@ pub fn line_strip(
         type_: Marker::LINE_STRIP,
         action: Marker::ADD,
         pose: Pose::default(),
-        scale: Vector3 { x: style.width, y: 0.0, z: 0.0 },
+        scale: Vector3 {
+            x: style.width,
+            y: 0.0,
+            z: 0.0,
+        },
         color,
         lifetime: duration(style.lifetime),
         ..Marker::default()
     };
     m.points.reserve(points.len() + 1);
-    let p = |q: [f32; 2]| Point { x: q[0] as f64, y: q[1] as f64, z: style.z };
+    let p = |q: [f32; 2]| Point {
+        x: q[0] as f64,
+        y: q[1] as f64,
+        z: style.z,
+    };
     m.points.push(p(origin));
     m.points.extend(points.iter().map(|&q| p(q)));
     if m.points.len() == 1 {
@@ -103,7 +133,10 @@ pub fn delete(header: &Header, id: i32) -> Marker {
 /// The map as arrows: one per component, from its location along its mean direction,
 /// as long as `seconds` of its mean speed, as opaque as its weight.
 pub fn map_arrows(map: &CliffMap, frame_id: &str, seconds: f64) -> MarkerArray {
-    let header = Header { frame_id: frame_id.to_string(), ..Header::default() };
+    let header = Header {
+        frame_id: frame_id.to_string(),
+        ..Header::default()
+    };
     let mut out = MarkerArray::default();
     out.markers.push(Marker {
         header: header.clone(),
@@ -123,11 +156,24 @@ pub fn map_arrows(map: &CliffMap, frame_id: &str, seconds: f64) -> MarkerArray {
                 type_: Marker::ARROW,
                 action: Marker::ADD,
                 pose: Pose {
-                    position: Point { x: loc.position.x, y: loc.position.y, z: 0.0 },
+                    position: Point {
+                        x: loc.position.x,
+                        y: loc.position.y,
+                        z: 0.0,
+                    },
                     orientation: Quaternion::from_yaw(c.theta),
                 },
-                scale: Vector3 { x: (c.rho * seconds).max(0.02), y: 0.04, z: 0.04 },
-                color: ColorRGBA { r, g, b, a: (0.2 + 0.8 * c.weight.clamp(0.0, 1.0)) as f32 },
+                scale: Vector3 {
+                    x: (c.rho * seconds).max(0.02),
+                    y: 0.04,
+                    z: 0.04,
+                },
+                color: ColorRGBA {
+                    r,
+                    g,
+                    b,
+                    a: (0.2 + 0.8 * c.weight.clamp(0.0, 1.0)) as f32,
+                },
                 ..Marker::default()
             });
             id = id.wrapping_add(1);
@@ -176,10 +222,27 @@ mod tests {
     #[test]
     fn a_strip_starts_at_the_origin_and_has_two_points_at_least() {
         let h = Header::default();
-        let m = line_strip(&h, &MarkerStyle::default(), 3, [1.0, 2.0], &[], track_color(1));
+        let m = line_strip(
+            &h,
+            &MarkerStyle::default(),
+            3,
+            [1.0, 2.0],
+            &[],
+            track_color(1),
+        );
         assert_eq!(m.points.len(), 2);
-        let m = line_strip(&h, &MarkerStyle::default(), 3, [1.0, 2.0], &[[1.5, 2.0], [2.0, 2.0]], track_color(1));
-        assert_eq!((m.points.len(), m.points[0].x, m.points[2].x), (3, 1.0, 2.0));
+        let m = line_strip(
+            &h,
+            &MarkerStyle::default(),
+            3,
+            [1.0, 2.0],
+            &[[1.5, 2.0], [2.0, 2.0]],
+            track_color(1),
+        );
+        assert_eq!(
+            (m.points.len(), m.points[0].x, m.points[2].x),
+            (3, 1.0, 2.0)
+        );
         assert_eq!(m.type_, Marker::LINE_STRIP);
     }
 
@@ -190,6 +253,10 @@ mod tests {
         let a = map_arrows(&map, "map", 1.0);
         assert_eq!(a.markers.len(), n + 1);
         assert_eq!(a.markers[0].action, Marker::DELETEALL);
-        assert!(a.markers[1..].iter().all(|m| m.type_ == Marker::ARROW && m.header.frame_id == "map"));
+        assert!(
+            a.markers[1..]
+                .iter()
+                .all(|m| m.type_ == Marker::ARROW && m.header.frame_id == "map")
+        );
     }
 }

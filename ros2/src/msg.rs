@@ -35,12 +35,21 @@ impl Time {
             ns -= 1e9;
         }
         if sec < i32::MIN as f64 {
-            return Time { sec: i32::MIN, nanosec: 0 };
+            return Time {
+                sec: i32::MIN,
+                nanosec: 0,
+            };
         }
         if sec > i32::MAX as f64 {
-            return Time { sec: i32::MAX, nanosec: 999_999_999 };
+            return Time {
+                sec: i32::MAX,
+                nanosec: 999_999_999,
+            };
         }
-        Time { sec: sec as i32, nanosec: ns as u32 }
+        Time {
+            sec: sec as i32,
+            nanosec: ns as u32,
+        }
     }
 }
 
@@ -113,7 +122,12 @@ pub struct Quaternion {
 impl Default for Quaternion {
     /// The identity (as ROS 2's default-constructed message).
     fn default() -> Self {
-        Quaternion { x: 0.0, y: 0.0, z: 0.0, w: 1.0 }
+        Quaternion {
+            x: 0.0,
+            y: 0.0,
+            z: 0.0,
+            w: 1.0,
+        }
     }
 }
 
@@ -121,7 +135,12 @@ impl Quaternion {
     /// A rotation by `yaw` (rad) about z.
     pub fn from_yaw(yaw: f64) -> Self {
         let (s, c) = (yaw * 0.5).sin_cos();
-        Quaternion { x: 0.0, y: 0.0, z: s, w: c }
+        Quaternion {
+            x: 0.0,
+            y: 0.0,
+            z: s,
+            w: c,
+        }
     }
 }
 
@@ -327,7 +346,10 @@ mod tests {
             assert!(s.nanosec < 1_000_000_000);
             assert!((s.as_secs_f64() - t).abs() < 1e-6, "{t} -> {s:?}");
         }
-        assert_eq!(Time::from_secs_f64(0.9999999999), Time { sec: 1, nanosec: 0 });
+        assert_eq!(
+            Time::from_secs_f64(0.9999999999),
+            Time { sec: 1, nanosec: 0 }
+        );
         assert_eq!(Time::from_secs_f64(f64::NAN), Time::default());
         assert_eq!(Time::from_secs_f64(1e300).sec, i32::MAX);
     }

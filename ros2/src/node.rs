@@ -46,7 +46,11 @@ pub fn run(settings: Settings, domain_id: u16) -> Result<()> {
         )),
         None => None,
     };
-    let style = MarkerStyle { width: p.marker_width, lifetime: p.marker_lifetime, z: 0.0 };
+    let style = MarkerStyle {
+        width: p.marker_width,
+        lifetime: p.marker_lifetime,
+        z: 0.0,
+    };
     let mut engine = Engine::new(
         Keeper::new(p.keeper()),
         predictor,
@@ -58,8 +62,13 @@ pub fn run(settings: Settings, domain_id: u16) -> Result<()> {
         .map_err(|e| anyhow::anyhow!("DDS participant on domain {domain_id}: {e:?}"))?;
     let mut node = context
         .new_node(
-            NodeName::new(&settings.namespace, &settings.name)
-                .map_err(|e| anyhow::anyhow!("node name '{}' in '{}': {e:?}", settings.name, settings.namespace))?,
+            NodeName::new(&settings.namespace, &settings.name).map_err(|e| {
+                anyhow::anyhow!(
+                    "node name '{}' in '{}': {e:?}",
+                    settings.name,
+                    settings.namespace
+                )
+            })?,
             NodeOptions::new().enable_rosout(false),
         )
         .map_err(|e| anyhow::anyhow!("creating the node: {e:?}"))?;
@@ -80,36 +89,59 @@ pub fn run(settings: Settings, domain_id: u16) -> Result<()> {
         .durability(Durability::TransientLocal)
         .history(History::KeepLast { depth: 1 });
 
-    let t: std::collections::BTreeMap<&str, String> =
-        settings.topics.iter().map(|(k, v)| (*k, resolve(&settings.namespace, v))).collect();
+    let t: std::collections::BTreeMap<&str, String> = settings
+        .topics
+        .iter()
+        .map(|(k, v)| (*k, resolve(&settings.namespace, v)))
+        .collect();
     let t = &t;
     let people_topic = node
-        .create_topic(&topic_name(&t["people"])?, type_name(msg::PEOPLE), &input_qos)
+        .create_topic(
+            &topic_name(&t["people"])?,
+            type_name(msg::PEOPLE),
+            &input_qos,
+        )
         .map_err(|e| anyhow::anyhow!("topic {}: {e:?}", t["people"]))?;
     let mut people_sub = node
         .create_subscription::<People>(&people_topic, None)
         .map_err(|e| anyhow::anyhow!("subscribing {}: {e:?}", t["people"]))?;
     let pred_topic = node
-        .create_topic(&topic_name(&t["predictions"])?, type_name(msg::PREDICTIONS), &out_qos)
+        .create_topic(
+            &topic_name(&t["predictions"])?,
+            type_name(msg::PREDICTIONS),
+            &out_qos,
+        )
         .map_err(|e| anyhow::anyhow!("topic {}: {e:?}", t["predictions"]))?;
     let pred_pub = node
         .create_publisher::<Predictions>(&pred_topic, None)
         .map_err(|e| anyhow::anyhow!("publisher {}: {e:?}", t["predictions"]))?;
     let marker_topic = node
-        .create_topic(&topic_name(&t["markers"])?, type_name(msg::MARKER_ARRAY), &out_qos)
+        .create_topic(
+            &topic_name(&t["markers"])?,
+            type_name(msg::MARKER_ARRAY),
+            &out_qos,
+        )
         .map_err(|e| anyhow::anyhow!("topic {}: {e:?}", t["markers"]))?;
     let marker_pub = node
         .create_publisher::<MarkerArray>(&marker_topic, None)
         .map_err(|e| anyhow::anyhow!("publisher {}: {e:?}", t["markers"]))?;
     let map_topic = node
-        .create_topic(&topic_name(&t["map_markers"])?, type_name(msg::MARKER_ARRAY), &latched)
+        .create_topic(
+            &topic_name(&t["map_markers"])?,
+            type_name(msg::MARKER_ARRAY),
+            &latched,
+        )
         .map_err(|e| anyhow::anyhow!("topic {}: {e:?}", t["map_markers"]))?;
     let map_pub = node
         .create_publisher::<MarkerArray>(&map_topic, None)
         .map_err(|e| anyhow::anyhow!("publisher {}: {e:?}", t["map_markers"]))?;
     if let Some(map) = &map_for_markers {
         let arrows = markers::map_arrows(map, &p.map_frame, p.map_arrow_seconds);
-        tracing::info!("map: {} arrows on {} (latched)", arrows.markers.len() - 1, t["map_markers"]);
+        tracing::info!(
+            "map: {} arrows on {} (latched)",
+            arrows.markers.len() - 1,
+            t["map_markers"]
+        );
         if let Err(e) = map_pub.publish(arrows) {
             tracing::warn!("publishing the map markers: {e:?}");
         }
@@ -125,13 +157,21 @@ pub fn run(settings: Settings, domain_id: u16) -> Result<()> {
     tracing::info!(
         "node {}{}{} on domain {domain_id}: {} -> {}, {}; predicting {} ({}), k {}, {} s at {} s, {}",
         settings.namespace,
-        if settings.namespace.ends_with('/') { "" } else { "/" },
+        if settings.namespace.ends_with('/') {
+            ""
+        } else {
+            "/"
+        },
         settings.name,
         t["people"],
         t["predictions"],
         t["markers"],
         engine.predictor().map_label(),
-        if engine.predictor().local_maps().is_some() { "in-process" } else { "through cliffd" },
+        if engine.predictor().local_maps().is_some() {
+            "in-process"
+        } else {
+            "through cliffd"
+        },
         p.k,
         p.horizon,
         p.dt,

@@ -9,7 +9,9 @@ use std::time::{Duration, Instant};
 use cliff::map::{CliffMap, MapSet};
 use cliff::predict::{Method, Params};
 use cliff_client::protocol::Limits;
-use cliff_client::{Client, ClientOptions, Error as ClientError, LocalPredictor, MapTime, Observation, Request};
+use cliff_client::{
+    Client, ClientOptions, Error as ClientError, LocalPredictor, MapTime, Observation, Request,
+};
 
 /// Which map of the time of day to predict with.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -30,7 +32,9 @@ impl std::str::FromStr for TimeOfDay {
             "stamp" => Ok(TimeOfDay::Stamp),
             "all-day" | "all_day" => Ok(TimeOfDay::AllDay),
             "now" => Ok(TimeOfDay::Now),
-            _ => Err(format!("unknown time_of_day '{s}' (expected stamp, all-day or now)")),
+            _ => Err(format!(
+                "unknown time_of_day '{s}' (expected stamp, all-day or now)"
+            )),
         }
     }
 }
@@ -178,10 +182,17 @@ impl Predictor {
     pub fn new(source: &Source, settings: PredictSettings) -> anyhow::Result<Predictor> {
         use anyhow::Context as _;
         let (backend, map_name, map_label) = match source {
-            Source::Daemon { service, map, deadline } => (
+            Source::Daemon {
+                service,
+                map,
+                deadline,
+            } => (
                 Backend::Daemon {
                     service: service.clone(),
-                    options: ClientOptions { deadline: *deadline, ..ClientOptions::default() },
+                    options: ClientOptions {
+                        deadline: *deadline,
+                        ..ClientOptions::default()
+                    },
                     client: None,
                     next_try: Instant::now(),
                 },
@@ -189,9 +200,13 @@ impl Predictor {
                 map.clone(),
             ),
             Source::Local(path) => {
-                let maps = MapSet::load(path).with_context(|| format!("loading map {}", path.display()))?;
+                let maps = MapSet::load(path)
+                    .with_context(|| format!("loading map {}", path.display()))?;
                 (
-                    Backend::Local { maps, predictor: LocalPredictor::new(Limits::default()) },
+                    Backend::Local {
+                        maps,
+                        predictor: LocalPredictor::new(Limits::default()),
+                    },
                     "local".to_string(),
                     path.display().to_string(),
                 )
@@ -209,7 +224,14 @@ impl Predictor {
             .map_err(|e| anyhow::anyhow!("map name '{map_name}': {e}"))?;
         request = request.scores(settings.scores);
         let chunk = Limits::default().max_agents as usize;
-        Ok(Predictor { backend, map_label, settings, request, chunk, samples: Samples::default() })
+        Ok(Predictor {
+            backend,
+            map_label,
+            settings,
+            request,
+            chunk,
+            samples: Samples::default(),
+        })
     }
 
     /// The map as the messages name it.
@@ -265,8 +287,11 @@ impl Predictor {
         let mut agents = agents.into_iter().peekable();
         while agents.peek().is_some() {
             let history = agents.next().expect("peeked");
-            self.request
-                .add_agent(history.into_iter().map(|(t, x, y)| Observation::position(t, x, y)));
+            self.request.add_agent(
+                history
+                    .into_iter()
+                    .map(|(t, x, y)| Observation::position(t, x, y)),
+            );
             if self.request.agents() == self.chunk || agents.peek().is_none() {
                 self.request.set_seed(seed.wrapping_add(chunk));
                 Self::run(&mut self.backend, &self.request, when, &mut self.samples)?;
@@ -277,7 +302,12 @@ impl Predictor {
         Ok(&self.samples)
     }
 
-    fn run(backend: &mut Backend, request: &Request, when: MapTime, out: &mut Samples) -> Result<(), PredictError> {
+    fn run(
+        backend: &mut Backend,
+        request: &Request,
+        when: MapTime,
+        out: &mut Samples,
+    ) -> Result<(), PredictError> {
         match backend {
             Backend::Local { maps, predictor } => {
                 let map: &Arc<CliffMap> = when.map_in(maps);
@@ -288,11 +318,18 @@ impl Predictor {
                 out.append(agents, b.positions(), b.lens(), b.scores());
                 Ok(())
             }
-            Backend::Daemon { service, options, client, next_try } => {
+            Backend::Daemon {
+                service,
+                options,
+                client,
+                next_try,
+            } => {
                 if client.is_none() {
                     let now = Instant::now();
                     if now < *next_try {
-                        return Err(PredictError::Unavailable(format!("no cliffd serves '{service}' yet")));
+                        return Err(PredictError::Unavailable(format!(
+                            "no cliffd serves '{service}' yet"
+                        )));
                     }
                     *next_try = now + RECONNECT;
                     match Client::connect_with(service, options.clone()) {
@@ -308,9 +345,11 @@ impl Predictor {
                         out.append(agents, p.positions(), p.lens(), scores);
                         Ok(())
                     }
-                    Err(e @ (ClientError::NoDaemon { .. } | ClientError::DaemonGone { .. } | ClientError::Deadline { .. })) => {
-                        Err(PredictError::Unavailable(e.to_string()))
-                    }
+                    Err(
+                        e @ (ClientError::NoDaemon { .. }
+                        | ClientError::DaemonGone { .. }
+                        | ClientError::Deadline { .. }),
+                    ) => Err(PredictError::Unavailable(e.to_string())),
                     Err(e @ ClientError::Ipc(_)) => {
                         // rebuild the connection on the next try
                         *client = None;

@@ -152,20 +152,40 @@ fn yaml_value(s: &str) -> Value {
 /// The `ros__parameters` of every entry of a parameters file that names this node
 /// (`/**`, `name`, `/name`, `/ns/name`), merged in that order.
 pub fn file_parameters(path: &Path, name: &str, namespace: &str) -> Result<Mapping> {
-    let text = std::fs::read_to_string(path).with_context(|| format!("reading parameters file {}", path.display()))?;
-    let doc: Value = serde_yaml_ng::from_str(&text).with_context(|| format!("parameters file {}", path.display()))?;
+    let text = std::fs::read_to_string(path)
+        .with_context(|| format!("reading parameters file {}", path.display()))?;
+    let doc: Value = serde_yaml_ng::from_str(&text)
+        .with_context(|| format!("parameters file {}", path.display()))?;
     let Value::Mapping(top) = doc else {
-        bail!("parameters file {}: expected a mapping of node names to ros__parameters", path.display());
+        bail!(
+            "parameters file {}: expected a mapping of node names to ros__parameters",
+            path.display()
+        );
     };
-    let full = if namespace == "/" { format!("/{name}") } else { format!("{namespace}/{name}") };
+    let full = if namespace == "/" {
+        format!("/{name}")
+    } else {
+        format!("{namespace}/{name}")
+    };
     let mut out = Mapping::new();
-    for key in ["/**".to_string(), name.to_string(), format!("/{name}"), full] {
+    for key in [
+        "/**".to_string(),
+        name.to_string(),
+        format!("/{name}"),
+        full,
+    ] {
         if let Some(entry) = top.get(key.as_str()) {
             let params = entry.get("ros__parameters").with_context(|| {
-                format!("parameters file {}: entry '{key}' has no ros__parameters", path.display())
+                format!(
+                    "parameters file {}: entry '{key}' has no ros__parameters",
+                    path.display()
+                )
             })?;
             let Value::Mapping(m) = params else {
-                bail!("parameters file {}: {key}.ros__parameters is not a mapping", path.display());
+                bail!(
+                    "parameters file {}: {key}.ros__parameters is not a mapping",
+                    path.display()
+                );
             };
             for (k, v) in m {
                 out.insert(k.clone(), v.clone());
@@ -215,10 +235,18 @@ impl Parameters {
         pos(self.daemon_deadline, "daemon_deadline")?;
         pos(self.warn_period, "warn_period")?;
         if !(self.rate.is_finite() && self.rate >= 0.0) {
-            bail!("parameter rate must be 0 (on each input) or positive, not {}", self.rate);
+            bail!(
+                "parameter rate must be 0 (on each input) or positive, not {}",
+                self.rate
+            );
         }
-        if !(self.clock_offset.is_finite() && self.history_seconds.is_finite() && self.history_seconds >= 0.0) {
-            bail!("parameters clock_offset and history_seconds must be finite (history_seconds >= 0)");
+        if !(self.clock_offset.is_finite()
+            && self.history_seconds.is_finite()
+            && self.history_seconds >= 0.0)
+        {
+            bail!(
+                "parameters clock_offset and history_seconds must be finite (history_seconds >= 0)"
+            );
         }
         if self.k == 0 || self.max_tracks == 0 || self.history < 2 {
             bail!("parameters k and max_tracks must be at least 1, history at least 2");
@@ -229,19 +257,27 @@ impl Parameters {
         self.best_effort()?;
         let steps = self.predict().params.steps();
         if steps == 0 {
-            bail!("horizon {} is shorter than one step of dt {}", self.horizon, self.dt);
+            bail!(
+                "horizon {} is shorter than one step of dt {}",
+                self.horizon,
+                self.dt
+            );
         }
         Ok(())
     }
 
     /// The method.
     pub fn method(&self) -> Result<Method> {
-        self.method.parse::<Method>().map_err(|e| anyhow::anyhow!("parameter method: {e}"))
+        self.method
+            .parse::<Method>()
+            .map_err(|e| anyhow::anyhow!("parameter method: {e}"))
     }
 
     /// The time-of-day rule.
     pub fn time_of_day(&self) -> Result<TimeOfDay> {
-        self.time_of_day.parse::<TimeOfDay>().map_err(|e| anyhow::anyhow!("parameter time_of_day: {e}"))
+        self.time_of_day
+            .parse::<TimeOfDay>()
+            .map_err(|e| anyhow::anyhow!("parameter time_of_day: {e}"))
     }
 
     /// Whether the input subscription is best-effort.
@@ -260,7 +296,9 @@ impl Parameters {
             .map(|s| {
                 let f: Vec<&str> = s.split_whitespace().collect();
                 let num = |i: usize| -> Result<f64> {
-                    let v: f64 = f[i].parse().with_context(|| format!("static transform '{s}': '{}' is not a number", f[i]))?;
+                    let v: f64 = f[i].parse().with_context(|| {
+                        format!("static transform '{s}': '{}' is not a number", f[i])
+                    })?;
                     if !v.is_finite() {
                         bail!("static transform '{s}': {v} is not finite");
                     }
@@ -269,7 +307,12 @@ impl Parameters {
                 if f.len() != 4 {
                     bail!("static transform '{s}': expected \"frame x y yaw\"");
                 }
-                Ok(StaticTransform { frame: f[0].to_string(), x: num(1)?, y: num(2)?, yaw: num(3)? })
+                Ok(StaticTransform {
+                    frame: f[0].to_string(),
+                    x: num(1)?,
+                    y: num(2)?,
+                    yaw: num(3)?,
+                })
             })
             .collect()
     }
@@ -324,9 +367,12 @@ impl Parameters {
 /// Apply `from:=to` remappings to the default topic names; `from` is a key of
 /// [`TOPICS`] or a default name (`people`, `/people`).
 pub fn topics(remaps: &[String]) -> Result<BTreeMap<&'static str, String>> {
-    let mut out: BTreeMap<&'static str, String> = TOPICS.iter().map(|&(k, v)| (k, v.to_string())).collect();
+    let mut out: BTreeMap<&'static str, String> =
+        TOPICS.iter().map(|&(k, v)| (k, v.to_string())).collect();
     for r in remaps {
-        let (from, to) = r.split_once(":=").with_context(|| format!("remapping '{r}' is not from:=to"))?;
+        let (from, to) = r
+            .split_once(":=")
+            .with_context(|| format!("remapping '{r}' is not from:=to"))?;
         let from_rel = from.trim_start_matches('/');
         let key = TOPICS
             .iter()
@@ -335,7 +381,11 @@ pub fn topics(remaps: &[String]) -> Result<BTreeMap<&'static str, String>> {
             .with_context(|| {
                 format!(
                     "remapping '{r}': no topic '{from}' (the topics: {})",
-                    TOPICS.iter().map(|(_, v)| *v).collect::<Vec<_>>().join(", ")
+                    TOPICS
+                        .iter()
+                        .map(|(_, v)| *v)
+                        .collect::<Vec<_>>()
+                        .join(", ")
                 )
             })?;
         if to.is_empty() {
@@ -377,28 +427,54 @@ mod tests {
         let p = parameters(m.clone(), &[]).unwrap();
         assert_eq!((p.k, p.scores, p.map_frame.as_str()), (7, true, "world"));
         assert_eq!(p.transforms().unwrap()[0].yaw, 0.5);
-        let p = parameters(m, &["k:=3".into(), "method:=improved".into(), "map_file:=demo".into()]).unwrap();
+        let p = parameters(
+            m,
+            &[
+                "k:=3".into(),
+                "method:=improved".into(),
+                "map_file:=demo".into(),
+            ],
+        )
+        .unwrap();
         assert_eq!((p.k, p.method().unwrap()), (3, Method::Improved));
         assert_eq!(p.source(), Source::Demo);
     }
 
     #[test]
     fn bad_parameters_are_named() {
-        let e = |o: &str| format!("{:#}", parameters(Mapping::new(), &[o.to_string()]).unwrap_err());
+        let e = |o: &str| {
+            format!(
+                "{:#}",
+                parameters(Mapping::new(), &[o.to_string()]).unwrap_err()
+            )
+        };
         assert!(e("kk:=3").contains("unknown field `kk`"), "{}", e("kk:=3"));
-        assert_eq!(e("k:=many"), "parameter k = many: invalid type: string \"many\", expected usize");
+        assert_eq!(
+            e("k:=many"),
+            "parameter k = many: invalid type: string \"many\", expected usize"
+        );
         assert!(e("dt:=0").contains("dt"));
         assert!(e("method:=fast").contains("method"));
         assert!(e("static_transforms:=['odom 1 2']").contains("frame x y yaw"));
         assert!(e("input_reliability:=sometimes").contains("input_reliability"));
         assert!(e("no-equals").contains("name:=value"));
         let f = file("cliff_ros2:\n  k: 3\n");
-        assert!(format!("{:#}", file_parameters(f.path(), "cliff_ros2", "/").unwrap_err()).contains("ros__parameters"));
+        assert!(
+            format!(
+                "{:#}",
+                file_parameters(f.path(), "cliff_ros2", "/").unwrap_err()
+            )
+            .contains("ros__parameters")
+        );
     }
 
     #[test]
     fn remapping_by_key_or_name() {
-        let t = topics(&["people:=/tracker/people".into(), "cliff/markers:=viz".into()]).unwrap();
+        let t = topics(&[
+            "people:=/tracker/people".into(),
+            "cliff/markers:=viz".into(),
+        ])
+        .unwrap();
         assert_eq!(t["people"], "/tracker/people");
         assert_eq!(t["markers"], "viz");
         assert_eq!(t["predictions"], "cliff/predictions");

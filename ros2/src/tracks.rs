@@ -191,7 +191,9 @@ impl Track {
             Some(last) if seconds > 0.0 => {
                 // a millisecond of slack: 0.4 s steps stamped 0.41 s apart stay in
                 let from = last.t - seconds - 1e-3;
-                (0..self.len).find(|&i| self.get(i).t >= from).unwrap_or(self.len)
+                (0..self.len)
+                    .find(|&i| self.get(i).t >= from)
+                    .unwrap_or(self.len)
             }
             _ => 0,
         };
@@ -308,7 +310,12 @@ impl Keeper {
         {
             None
         } else {
-            match self.settings.transforms.iter().position(|t| t.frame == frame) {
+            match self
+                .settings
+                .transforms
+                .iter()
+                .position(|t| t.frame == frame)
+            {
                 Some(i) => Some(i),
                 None => {
                     note(&mut self.counts, &mut out, Skip::WrongFrame);
@@ -473,12 +480,27 @@ mod tests {
         let a = k.apply(
             "map",
             1.0,
-            [("a", 0.0, 0.0), ("", 1.0, 1.0), ("b", f64::NAN, 0.0), ("a", 5.0, 5.0), ("c", 0.0, 1.0), ("d", 0.0, 2.0)],
+            [
+                ("a", 0.0, 0.0),
+                ("", 1.0, 1.0),
+                ("b", f64::NAN, 0.0),
+                ("a", 5.0, 5.0),
+                ("c", 0.0, 1.0),
+                ("d", 0.0, 2.0),
+            ],
             now,
             |s| told.push(s),
         );
         assert_eq!((a.added, a.created, a.skipped), (2, 2, 4));
-        assert_eq!(told, [Skip::EmptyId, Skip::NonFinite, Skip::DuplicateId, Skip::TooManyTracks]);
+        assert_eq!(
+            told,
+            [
+                Skip::EmptyId,
+                Skip::NonFinite,
+                Skip::DuplicateId,
+                Skip::TooManyTracks
+            ]
+        );
         assert_eq!(ids(&k), ["a", "c"]);
         // the same stamp again, and an older one within the timeout: time going backwards
         k.apply("map", 1.0, [("a", 0.0, 0.0)], now, |_| {});
@@ -486,8 +508,15 @@ mod tests {
         assert_eq!(k.count(Skip::TimeBackwards), 2);
         assert_eq!(k.tracks()[0].len(), 1);
         // a NaN stamp and a foreign frame skip the whole message
-        assert_eq!(k.apply("map", f64::NAN, [("a", 0.0, 0.0)], now, |_| {}).skipped, 1);
-        assert_eq!(k.apply("odom", 2.0, [("a", 0.0, 0.0)], now, |_| {}).skipped, 1);
+        assert_eq!(
+            k.apply("map", f64::NAN, [("a", 0.0, 0.0)], now, |_| {})
+                .skipped,
+            1
+        );
+        assert_eq!(
+            k.apply("odom", 2.0, [("a", 0.0, 0.0)], now, |_| {}).skipped,
+            1
+        );
         assert_eq!(k.count(Skip::WrongFrame), 1);
         assert_eq!(k.count(Skip::NonFinite), 2);
         // a jump back by more than the timeout resets the tracks and then applies
@@ -498,7 +527,13 @@ mod tests {
         assert_eq!(k.newest(), -100.0);
         // a flood of ids never grows past the cap
         let names: Vec<String> = (0..1000).map(|i| format!("p{i}")).collect();
-        k.apply("map", -99.0, names.iter().map(|n| (n.as_str(), 0.0, 0.0)), now, |_| {});
+        k.apply(
+            "map",
+            -99.0,
+            names.iter().map(|n| (n.as_str(), 0.0, 0.0)),
+            now,
+            |_| {},
+        );
         assert_eq!(k.tracks().len(), 2);
         assert_eq!(k.count(Skip::TooManyTracks), 1 + 999);
     }
@@ -517,7 +552,10 @@ mod tests {
         let now = Instant::now();
         k.apply("odom", 0.0, [("a", 1.0, 0.0)], now, |_| {});
         let o = k.tracks()[0].last().unwrap();
-        assert!((o.x - 1.0).abs() < 1e-12 && (o.y - 3.0).abs() < 1e-12, "{o:?}");
+        assert!(
+            (o.x - 1.0).abs() < 1e-12 && (o.y - 3.0).abs() < 1e-12,
+            "{o:?}"
+        );
         assert_eq!(k.count(Skip::WrongFrame), 0);
     }
 }

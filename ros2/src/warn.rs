@@ -14,7 +14,11 @@ pub struct RateLimit {
 impl RateLimit {
     /// At most one warning per `period`.
     pub fn new(period: Duration) -> Self {
-        RateLimit { period, last: None, held: 0 }
+        RateLimit {
+            period,
+            last: None,
+            held: 0,
+        }
     }
 
     /// Whether to warn now; `Some(n)`: yes, and `n` occurrences since the last warning

@@ -27,8 +27,8 @@ finish() {
 if ! bash "$here/setup_ros2.sh"; then
   echo "FAIL setup: ROS 2 wheels or message packages"; failed=$((failed + 1)); finish
 fi
-if ! (cd "$repo" && cargo build --release -p cliff-ros2 --quiet); then
-  echo "FAIL build: cliff-ros2"; failed=$((failed + 1)); finish
+if ! (cd "$repo" && cargo build --release -p cliff-ros2 --quiet && cargo build --release -p cliff-service --bin cliffd --quiet); then
+  echo "FAIL build: cliff-ros2 and cliffd"; failed=$((failed + 1)); finish
 fi
 target="${CARGO_TARGET_DIR:-$repo/target}/release"
 map="$data/thor1/cliffmap.csv"
@@ -37,23 +37,34 @@ components=$(grep -c . "$map")
 # shellcheck disable=SC1091
 . "$here/ros2_env.sh"
 
-# scenario NAME NODE_ARGS... : run the three processes in a fresh namespace, then verify
+# scenario NAME DAEMON_ARGS NODE_ARGS... : run the processes in a fresh network
+# namespace (cliff-ros2 first; then cliffd with DAEMON_ARGS unless it is "-"; then the
+# rclpy listener and publisher), then verify
 scenario() {
-  local name="$1"; shift
+  local name="$1"; local daemon="$2"; local label="$3"; shift 3
   local tmp; tmp="$(mktemp -d)"
   local t1=$SECONDS
   unshare -n bash -c '
     ip link set lo up; ip link set lo multicast on; ip route add 224.0.0.0/4 dev lo
     export ROS_DOMAIN_ID=42
-    tmp="$1"; target="$2"; here="$3"; tracks="$4"; frames="$5"; shift 5
+    tmp="$1"; target="$2"; here="$3"; tracks="$4"; frames="$5"; daemon="$6"; shift 6
+    export CLIFF_IPC_PREFIX="cliffros2test$$"
     "$target/cliff-ros2" "$@" >"$tmp/node.log" 2>&1 & node=$!
+    dpid=""
+    if [ "$daemon" != "-" ]; then
+      sleep 1   # the node first: it must find the daemon by itself
+      # shellcheck disable=SC2086
+      "$target/cliffd" $daemon >"$tmp/cliffd.log" 2>&1 & dpid=$!
+      for _ in $(seq 100); do grep -q ready "$tmp/cliffd.log" && break; sleep 0.1; done
+    fi
     python "$here/rclpy/listen.py" --ready "$tmp/ready" --done "$tmp/sent.json" --out "$tmp/received.json" \
       2>"$tmp/listen.log" & listener=$!
     python "$here/rclpy/publish_people.py" --tracks "$tracks" --frames "$frames" \
       --wait-for "$tmp/ready" --out "$tmp/sent.json" 2>"$tmp/publish.log"
     wait $listener
     kill $node 2>/dev/null; wait $node 2>/dev/null
-    true' _ "$tmp" "$target" "$here" "$tracks" "$frames" "$@"
+    if [ -n "$dpid" ]; then kill $dpid 2>/dev/null; wait $dpid 2>/dev/null; fi
+    true' _ "$tmp" "$target" "$here" "$tracks" "$frames" "$daemon" "$@"
   echo "scenario $name ran in $((SECONDS - t1)) s (logs in $tmp)"
   if [ ! -s "$tmp/sent.json" ] || [ ! -s "$tmp/received.json" ]; then
     echo "FAIL $name: no exchange"; tail -n 5 "$tmp"/*.log; failed=$((failed + 1)); return
@@ -61,7 +72,7 @@ scenario() {
   local out
   out="$(python "$here/rclpy/verify.py" --name "$name" --sent "$tmp/sent.json" --received "$tmp/received.json" \
       --reference "$target/cliff-ros2-reference" --map "$map" --map-components "$components" \
-      --timeout 1.8)"
+      --map-label "$label" --timeout 1.8)"
   echo "$out" | grep -v ' passed, .* failed$'
   local p f
   p=$(echo "$out" | grep -c '^ok ')
@@ -70,5 +81,6 @@ scenario() {
   [ "$f" -eq 0 ] || tail -20 "$tmp/node.log"
 }
 
-scenario in-process --map "$map" -p rate:=0.0 -p track_timeout:=1.8
+scenario in-process - "$map" --map "$map" -p rate:=0.0 -p track_timeout:=1.8
+scenario cliffd "--map thor1=$map" thor1 -p daemon_map:=thor1 -p map_markers_file:="$map" -p rate:=0.0 -p track_timeout:=1.8
 finish

@@ -67,7 +67,14 @@ fn main() -> Result<()> {
         MapSet::load(&input.map).with_context(|| format!("loading {}", input.map))?
     };
     let method: Method = input.method.parse().map_err(anyhow::Error::msg)?;
-    let params = Params { method, k: input.k, horizon: input.horizon, dt: input.dt, seed: input.seed, ..Params::default() };
+    let params = Params {
+        method,
+        k: input.k,
+        horizon: input.horizon,
+        dt: input.dt,
+        seed: input.seed,
+        ..Params::default()
+    };
     let limits = Limits::default();
     let mut local = LocalPredictor::new(limits);
     let mut out = Output { cycles: Vec::new() };
@@ -75,17 +82,30 @@ fn main() -> Result<()> {
         let when = MapTime::At(secs(cycle.stamp));
         let mut people = Vec::new();
         for (c, chunk) in cycle.agents.chunks(limits.max_agents as usize).enumerate() {
-            let mut request = Request::new("local", &Params { seed: input.seed.wrapping_add(c as u64), ..params.clone() })?
-                .scores(input.scores);
+            let mut request = Request::new(
+                "local",
+                &Params {
+                    seed: input.seed.wrapping_add(c as u64),
+                    ..params.clone()
+                },
+            )?
+            .scores(input.scores);
             request.set_map_time(when);
             for h in chunk {
-                request.add_agent(h.iter().map(|&(s, n, x, y)| Observation::position(secs((s, n)), x, y)));
+                request.add_agent(
+                    h.iter()
+                        .map(|&(s, n, x, y)| Observation::position(secs((s, n)), x, y)),
+                );
             }
             let b = local
                 .predict(when.map_in(&maps), request.header(), request.rows())
                 .map_err(|r| anyhow::anyhow!("refused: {r}"))?;
             for a in 0..chunk.len() {
-                let mut p = Person { lengths: Vec::new(), points: Vec::new(), scores: Vec::new() };
+                let mut p = Person {
+                    lengths: Vec::new(),
+                    points: Vec::new(),
+                    scores: Vec::new(),
+                };
                 for s in 0..input.k {
                     let pts = b.sample(a, s);
                     p.lengths.push(pts.len() as u32);

@@ -75,6 +75,7 @@ def main():
     ap.add_argument("--reference", required=True, help="the cliff-ros2-reference binary")
     ap.add_argument("--map", required=True)
     ap.add_argument("--map-components", type=int, default=-1)
+    ap.add_argument("--map-label", default=None, help="the map as the messages must name it")
     ap.add_argument("--k", type=int, default=20)
     ap.add_argument("--method", default="cliff")
     ap.add_argument("--seed", type=int, default=0)
@@ -97,7 +98,8 @@ def main():
     bad_meta, bad_rules, cycles = [], [], []
     for p in preds:
         key = tuple(p["stamp"])
-        if (p["frame"], p["method"], p["k"], p["seed"], p["dt"], p["horizon"]) != ("map", a.method, a.k, a.seed, a.dt, a.horizon):
+        label = a.map if a.map_label is None else a.map_label
+        if (p["frame"], p["method"], p["k"], p["seed"], p["dt"], p["horizon"], p["map"]) != ("map", a.method, a.k, a.seed, a.dt, a.horizon, label):
             bad_meta.append(key)
         if key not in expected:
             bad_rules.append((key, "stamp not published"))
@@ -110,7 +112,7 @@ def main():
             continue
         if ids:
             cycles.append((p, {"stamp": list(key), "agents": hist}))
-    r.check(not bad_meta, "header, method, k, seed, dt and horizon as set", str(bad_meta[:3]))
+    r.check(not bad_meta, "frame, method, map, k, seed, dt and horizon as set", str(bad_meta[:3]))
     r.check(not bad_rules, f"the people predicted and their histories follow the track rules ({len(preds)} messages)",
             str(bad_rules[:2]))
     people = sum(len(p["people"]) for p, _ in cycles)
