@@ -1,0 +1,382 @@
+//! The node without ROS: people messages in, a predictions message and markers out.
+//! [`crate::node`] wires it to DDS; tests drive it directly.
+
+use std::time::{Duration, Instant};
+
+use crate::markers::{self, MarkerStyle};
+use crate::msg::{Header, MarkerArray, People, PersonPrediction, Point2, Predictions, Time};
+use crate::predictor::{PredictError, Predictor, method_name};
+use crate::tracks::{Keeper, Skip};
+use crate::warn::RateLimit;
+
+/// Counters of what the engine did.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Stats {
+    /// People messages applied.
+    pub messages: u64,
+    /// Cycles that published predictions.
+    pub predicted: u64,
+    /// Cycles without a prediction because the daemon was away.
+    pub unavailable: u64,
+    /// Cycles whose request was refused.
+    pub refused: u64,
+}
+
+/// One cycle's output.
+#[derive(Debug, Default)]
+pub struct Output {
+    /// The predictions, when there was a prediction.
+    pub predictions: Option<Predictions>,
+    /// Line strips of the samples and deletions of ended tracks (may be empty).
+    pub markers: MarkerArray,
+}
+
+/// People in, predictions out.
+pub struct Engine {
+    keeper: Keeper,
+    predictor: Predictor,
+    style: MarkerStyle,
+    frame: String,
+    warn: Vec<RateLimit>,
+    warn_predict: RateLimit,
+    away: bool,
+    selected: Vec<usize>,
+    ended: Vec<u32>,
+    alphas: Vec<f32>,
+    stats: Stats,
+}
+
+/// At least this many observations make a history (the velocity needs two).
+pub const MIN_HISTORY: usize = 2;
+
+impl Engine {
+    /// An engine over `keeper` and `predictor`, warning at most once per `warn_period`.
+    pub fn new(
+        keeper: Keeper,
+        predictor: Predictor,
+        style: MarkerStyle,
+        warn_period: Duration,
+    ) -> Self {
+        let frame = keeper.settings().frame_id.clone();
+        Engine {
+            keeper,
+            predictor,
+            style,
+            frame,
+            warn: vec![RateLimit::new(warn_period); Skip::ALL.len()],
+            warn_predict: RateLimit::new(warn_period),
+            away: false,
+            selected: Vec::new(),
+            ended: Vec::new(),
+            alphas: Vec::new(),
+            stats: Stats::default(),
+        }
+    }
+
+    /// The tracks.
+    pub fn keeper(&self) -> &Keeper {
+        &self.keeper
+    }
+
+    /// The predictor.
+    pub fn predictor(&self) -> &Predictor {
+        &self.predictor
+    }
+
+    /// The counters.
+    pub fn stats(&self) -> Stats {
+        self.stats
+    }
+
+    /// Apply a people message.
+    pub fn on_people(&mut self, msg: &People, now: Instant) {
+        self.stats.messages += 1;
+        let warn = &mut self.warn;
+        let keeper = &mut self.keeper;
+        let frame = msg.header.frame_id.as_str();
+        let stamp = msg.header.stamp.as_secs_f64();
+        let mut skipped = [false; Skip::ALL.len()];
+        keeper.apply(
+            frame,
+            stamp,
+            msg.people
+                .iter()
+                .map(|p| (p.name.as_str(), p.position.x, p.position.y)),
+            now,
+            |k| skipped[k.index()] = true,
+        );
+        for k in Skip::ALL {
+            if skipped[k.index()] {
+                if let Some(held) = warn[k.index()].check(now) {
+                    tracing::warn!(
+                        "people input skipped: {} (frame '{frame}', stamp {stamp:.3}, map frame '{}'); {} so far, {held} warnings held back",
+                        k.name(),
+                        keeper.settings().frame_id,
+                        keeper.count(k)
+                    );
+                }
+            }
+        }
+    }
+
+    /// Count a message that could not be decoded.
+    pub fn on_malformed(&mut self, error: &str, now: Instant) {
+        self.keeper.count_skip(Skip::Malformed);
+        if let Some(held) = self.warn[Skip::Malformed.index()].check(now) {
+            tracing::warn!(
+                "people input skipped: malformed message ({error}); {} so far, {held} warnings held back",
+                self.keeper.count(Skip::Malformed)
+            );
+        }
+    }
+
+    fn header(&self) -> Header {
+        let newest = self.keeper.newest();
+        Header {
+            stamp: Time::from_secs_f64(if newest.is_finite() { newest } else { 0.0 }),
+            frame_id: self.frame.clone(),
+        }
+    }
+
+    /// Forget stale tracks and delete their markers (no prediction): what an idle
+    /// on-input node does between messages.
+    pub fn expire(&mut self, now: Instant) -> MarkerArray {
+        let mut out = MarkerArray::default();
+        self.expire_into(now, &mut out);
+        out
+    }
+
+    fn expire_into(&mut self, now: Instant, out: &mut MarkerArray) {
+        self.keeper.expire(now);
+        self.keeper.take_ended(&mut self.ended);
+        let header = self.header();
+        let k = self.predictor.settings().params.k;
+        for &n in &self.ended {
+            for s in 0..k {
+                out.markers
+                    .push(markers::delete(&header, markers::sample_id(n, k, s)));
+            }
+        }
+    }
+
+    /// One cycle: forget stale tracks, predict the others, build the messages.
+    pub fn cycle(&mut self, now: Instant) -> Output {
+        let mut out = Output::default();
+        self.expire_into(now, &mut out.markers);
+        let newest = self.keeper.newest();
+        let header = self.header();
+        let k = self.predictor.settings().params.k;
+        if !newest.is_finite() {
+            return out;
+        }
+        let seconds = self.keeper.settings().history_seconds;
+        self.selected.clear();
+        for (i, t) in self.keeper.tracks().iter().enumerate() {
+            if t.window(seconds).len() >= MIN_HISTORY {
+                self.selected.push(i);
+            }
+        }
+        let p = self.predictor.settings().params.clone();
+        let map = self.predictor.map_label().to_string();
+        let tracks = self.keeper.tracks();
+        let selected = &self.selected;
+        let result = self.predictor.predict(
+            selected
+                .iter()
+                .map(|&i| tracks[i].window(seconds).map(|o| (o.t, o.x, o.y))),
+            newest,
+        );
+        let samples = match result {
+            Ok(s) => {
+                if self.away {
+                    tracing::info!("predictions are back");
+                    self.away = false;
+                    self.warn_predict.reset();
+                }
+                s
+            }
+            Err(e) => {
+                match e {
+                    PredictError::Unavailable(_) => {
+                        self.stats.unavailable += 1;
+                        self.away = true;
+                    }
+                    PredictError::Refused(_) => self.stats.refused += 1,
+                }
+                if let Some(held) = self.warn_predict.check(now) {
+                    tracing::warn!("no prediction this cycle: {e} ({held} warnings held back)");
+                }
+                return out;
+            }
+        };
+        self.stats.predicted += 1;
+        let mut msg = Predictions {
+            header: header.clone(),
+            dt: p.dt,
+            horizon: p.horizon,
+            k: p.k as u32,
+            method: method_name(p.method).to_string(),
+            map,
+            seed: p.seed,
+            people: Vec::with_capacity(selected.len()),
+        };
+        for (a, &i) in selected.iter().enumerate() {
+            let t = &tracks[i];
+            let last = t.last().expect("selected tracks have observations");
+            let origin = [last.x as f32, last.y as f32];
+            let mut person = PersonPrediction {
+                track_id: t.id.clone(),
+                stamp: Time::from_secs_f64(last.t),
+                history: t.window(seconds).len() as u32,
+                origin: Point2 {
+                    x: origin[0],
+                    y: origin[1],
+                },
+                lengths: Vec::with_capacity(k),
+                points: Vec::with_capacity(k * samples.steps),
+                scores: Vec::new(),
+            };
+            let scored = !samples.scores.is_empty();
+            if scored {
+                person
+                    .scores
+                    .extend((0..k).map(|s| samples.score(a, s).unwrap_or(f32::NAN)));
+                markers::score_alphas(&person.scores, &mut self.alphas);
+            }
+            let color = markers::track_color(t.number);
+            for s in 0..k {
+                let pts = samples.sample(a, s);
+                person.lengths.push(pts.len() as u32);
+                person
+                    .points
+                    .extend(pts.iter().map(|q| Point2 { x: q[0], y: q[1] }));
+                let mut c = color;
+                if scored {
+                    c.a = self.alphas[s];
+                }
+                out.markers.markers.push(markers::line_strip(
+                    &header,
+                    &self.style,
+                    markers::sample_id(t.number, k, s),
+                    origin,
+                    pts,
+                    c,
+                ));
+            }
+            msg.people.push(person);
+        }
+        out.predictions = Some(msg);
+        out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::msg::{Person, Point};
+    use crate::predictor::{PredictSettings, Source};
+    use crate::tracks::KeeperSettings;
+    use cliff::predict::Params;
+
+    fn people(stamp: f64, who: &[(&str, f64, f64)]) -> People {
+        People {
+            header: Header {
+                stamp: Time::from_secs_f64(stamp),
+                frame_id: "map".into(),
+            },
+            people: who
+                .iter()
+                .map(|&(n, x, y)| Person {
+                    name: n.into(),
+                    position: Point { x, y, z: 0.0 },
+                    ..Person::default()
+                })
+                .collect(),
+        }
+    }
+
+    fn engine(scores: bool) -> Engine {
+        let settings = PredictSettings {
+            params: Params {
+                k: 4,
+                horizon: 2.0,
+                ..Params::default()
+            },
+            scores,
+            ..PredictSettings::default()
+        };
+        Engine::new(
+            Keeper::new(KeeperSettings::default()),
+            Predictor::new(&Source::Demo, settings).unwrap(),
+            MarkerStyle::default(),
+            Duration::from_secs(5),
+        )
+    }
+
+    #[test]
+    fn two_observations_make_a_prediction_with_markers() {
+        let mut e = engine(true);
+        let now = Instant::now();
+        assert!(e.cycle(now).predictions.is_none());
+        e.on_people(&people(0.0, &[("a", -10.0, 0.5), ("b", 0.0, 0.0)]), now);
+        // one observation each: nothing to predict from yet, but a (empty) message
+        let o = e.cycle(now);
+        assert_eq!(o.predictions.unwrap().people.len(), 0);
+        e.on_people(&people(0.4, &[("a", -9.5, 0.5)]), now);
+        let o = e.cycle(now);
+        let p = o.predictions.unwrap();
+        assert_eq!(
+            (p.people.len(), p.k, p.method.as_str(), p.map.as_str()),
+            (1, 4, "cliff", "demo")
+        );
+        let a = &p.people[0];
+        assert_eq!(
+            (
+                a.track_id.as_str(),
+                a.history,
+                a.lengths.len(),
+                a.scores.len()
+            ),
+            ("a", 2, 4, 4)
+        );
+        assert_eq!(a.points.len() as u32, a.lengths.iter().sum::<u32>());
+        assert_eq!(a.origin, Point2 { x: -9.5, y: 0.5 });
+        assert_eq!(p.header.stamp, Time::from_secs_f64(0.4));
+        assert_eq!(o.markers.markers.len(), 4);
+        // ended tracks get their markers deleted
+        e.on_people(&people(3.0, &[("b", 0.1, 0.0)]), now);
+        let o = e.cycle(now);
+        let deletes = o
+            .markers
+            .markers
+            .iter()
+            .filter(|m| m.action == crate::msg::Marker::DELETE)
+            .count();
+        assert_eq!(deletes, 4);
+    }
+
+    #[test]
+    fn the_same_histories_and_seed_give_the_same_points() {
+        let run = || {
+            let mut e = engine(false);
+            let now = Instant::now();
+            for i in 0..5 {
+                let t = i as f64 * 0.4;
+                e.on_people(
+                    &people(
+                        t,
+                        &[
+                            ("a", -10.0 + 0.5 * i as f64, 0.5),
+                            ("b", 2.0, -1.0 + 0.4 * i as f64),
+                        ],
+                    ),
+                    now,
+                );
+            }
+            e.cycle(now).predictions.unwrap()
+        };
+        let (x, y) = (run(), run());
+        assert_eq!(x, y);
+        assert!(x.people[0].scores.is_empty());
+    }
+}

@@ -1,0 +1,23 @@
+//! # cliff-ros2: a ROS 2 node for CLiFF-LHMP predictions
+//!
+//! People in (`people_msgs/msg/People`), sampled trajectories out (`cliff_msgs/msg/Predictions`,
+//! `visualization_msgs/msg/MarkerArray`), speaking DDS to stock ROS 2 through
+//! ros2-client over RustDDS: no ROS installation is needed to build or run it.
+//! Predictions come from a running `cliffd` or, with a map file, in-process; the same
+//! histories and seed give the same numbers either way.
+//!
+//! * [`msg`]: the messages as serde structs.
+//! * [`tracks`]: the per-track bounded histories (timeouts, caps, frames, bad input).
+//! * [`predictor`]: cliffd or in-process.
+//! * [`engine`]: one cycle, without ROS; [`node`]: the DDS wiring.
+//! * [`settings`]: parameters (YAML file, overrides), names, remapping.
+#![warn(missing_docs)]
+
+pub mod engine;
+pub mod markers;
+pub mod msg;
+pub mod node;
+pub mod predictor;
+pub mod settings;
+pub mod tracks;
+pub mod warn;

@@ -1,0 +1,363 @@
+//! The ROS 2 messages the node reads and writes, as plain serde structs: field order
+//! and types follow the `.msg` definitions exactly, which is all RustDDS's CDR
+//! serializer needs (no generated code). Jazzy's definitions.
+
+use serde::{Deserialize, Serialize};
+
+/// A DDS type name: `(package, type)`, e.g. `("people_msgs", "People")`.
+pub type TypeName = (&'static str, &'static str);
+
+/// `builtin_interfaces/msg/Time`.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Time {
+    /// Seconds.
+    pub sec: i32,
+    /// Nanoseconds within the second (`0..1e9`).
+    pub nanosec: u32,
+}
+
+impl Time {
+    /// Seconds as `f64`.
+    pub fn as_secs_f64(self) -> f64 {
+        self.sec as f64 + self.nanosec as f64 * 1e-9
+    }
+
+    /// The stamp of `t` seconds, rounded to the nanosecond (saturating outside the `i32`
+    /// range; NaN gives 0).
+    pub fn from_secs_f64(t: f64) -> Time {
+        if !t.is_finite() {
+            return Time::default();
+        }
+        let mut sec = t.floor();
+        let mut ns = ((t - sec) * 1e9).round();
+        if ns >= 1e9 {
+            sec += 1.0;
+            ns -= 1e9;
+        }
+        if sec < i32::MIN as f64 {
+            return Time {
+                sec: i32::MIN,
+                nanosec: 0,
+            };
+        }
+        if sec > i32::MAX as f64 {
+            return Time {
+                sec: i32::MAX,
+                nanosec: 999_999_999,
+            };
+        }
+        Time {
+            sec: sec as i32,
+            nanosec: ns as u32,
+        }
+    }
+}
+
+/// `builtin_interfaces/msg/Duration`.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Duration {
+    /// Seconds.
+    pub sec: i32,
+    /// Nanoseconds.
+    pub nanosec: u32,
+}
+
+/// `std_msgs/msg/Header`.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct Header {
+    /// When the data was observed.
+    pub stamp: Time,
+    /// The coordinate frame of the data.
+    pub frame_id: String,
+}
+
+/// `std_msgs/msg/ColorRGBA`.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+pub struct ColorRGBA {
+    /// Red, 0..1.
+    pub r: f32,
+    /// Green.
+    pub g: f32,
+    /// Blue.
+    pub b: f32,
+    /// Opacity.
+    pub a: f32,
+}
+
+/// `geometry_msgs/msg/Point`.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+pub struct Point {
+    /// x (m).
+    pub x: f64,
+    /// y (m).
+    pub y: f64,
+    /// z (m).
+    pub z: f64,
+}
+
+/// `geometry_msgs/msg/Vector3`.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+pub struct Vector3 {
+    /// x.
+    pub x: f64,
+    /// y.
+    pub y: f64,
+    /// z.
+    pub z: f64,
+}
+
+/// `geometry_msgs/msg/Quaternion`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Quaternion {
+    /// x.
+    pub x: f64,
+    /// y.
+    pub y: f64,
+    /// z.
+    pub z: f64,
+    /// w.
+    pub w: f64,
+}
+
+impl Default for Quaternion {
+    /// The identity (as ROS 2's default-constructed message).
+    fn default() -> Self {
+        Quaternion {
+            x: 0.0,
+            y: 0.0,
+            z: 0.0,
+            w: 1.0,
+        }
+    }
+}
+
+impl Quaternion {
+    /// A rotation by `yaw` (rad) about z.
+    pub fn from_yaw(yaw: f64) -> Self {
+        let (s, c) = (yaw * 0.5).sin_cos();
+        Quaternion {
+            x: 0.0,
+            y: 0.0,
+            z: s,
+            w: c,
+        }
+    }
+}
+
+/// `geometry_msgs/msg/Pose`.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+pub struct Pose {
+    /// Position.
+    pub position: Point,
+    /// Orientation.
+    pub orientation: Quaternion,
+}
+
+/// `people_msgs/msg/Person` (wg-perception/people, ROS 2 branch).
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct Person {
+    /// The tracker's id of the person: our track id.
+    pub name: String,
+    /// Position (m) in the header's frame.
+    pub position: Point,
+    /// Velocity (m/s); not used (trackers often leave it zero): the velocity is
+    /// estimated from the positions, as the daemon does.
+    pub velocity: Point,
+    /// Tracker confidence.
+    pub reliability: f64,
+    /// Tag names.
+    pub tagnames: Vec<String>,
+    /// Tag values.
+    pub tags: Vec<String>,
+}
+
+/// `people_msgs/msg/People`.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct People {
+    /// Stamp and frame of every person.
+    pub header: Header,
+    /// The people.
+    pub people: Vec<Person>,
+}
+
+/// The DDS type of [`People`].
+pub const PEOPLE: TypeName = ("people_msgs", "People");
+
+/// `sensor_msgs/msg/CompressedImage` (inside [`Marker`] since Jazzy).
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct CompressedImage {
+    /// Header.
+    pub header: Header,
+    /// Format.
+    pub format: String,
+    /// Bytes.
+    pub data: Vec<u8>,
+}
+
+/// `visualization_msgs/msg/UVCoordinate`.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+pub struct UVCoordinate {
+    /// u.
+    pub u: f32,
+    /// v.
+    pub v: f32,
+}
+
+/// `visualization_msgs/msg/MeshFile`.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct MeshFile {
+    /// File name.
+    pub filename: String,
+    /// Bytes.
+    pub data: Vec<u8>,
+}
+
+/// `visualization_msgs/msg/Marker` (Jazzy: with the texture and mesh-file fields).
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct Marker {
+    /// Frame and stamp.
+    pub header: Header,
+    /// Namespace: with `id`, the marker's identity.
+    pub ns: String,
+    /// Id within the namespace.
+    pub id: i32,
+    /// [`Marker::ARROW`], [`Marker::LINE_STRIP`], ...
+    #[serde(rename = "type")]
+    pub type_: i32,
+    /// [`Marker::ADD`], [`Marker::DELETE`], [`Marker::DELETEALL`].
+    pub action: i32,
+    /// Pose.
+    pub pose: Pose,
+    /// Scale (a line strip's width is `scale.x`).
+    pub scale: Vector3,
+    /// Colour (of the whole marker unless `colors` is given).
+    pub color: ColorRGBA,
+    /// How long the marker stays shown (0: until replaced or deleted).
+    pub lifetime: Duration,
+    /// Re-transform every frame.
+    pub frame_locked: bool,
+    /// Points (line strips, lists).
+    pub points: Vec<Point>,
+    /// Per-point colours.
+    pub colors: Vec<ColorRGBA>,
+    /// Texture (Jazzy).
+    pub texture_resource: String,
+    /// Texture image (Jazzy).
+    pub texture: CompressedImage,
+    /// Texture coordinates (Jazzy).
+    pub uv_coordinates: Vec<UVCoordinate>,
+    /// Text.
+    pub text: String,
+    /// Mesh resource.
+    pub mesh_resource: String,
+    /// Embedded mesh file (Jazzy).
+    pub mesh_file: MeshFile,
+    /// Use the mesh's materials.
+    pub mesh_use_embedded_materials: bool,
+}
+
+impl Marker {
+    /// Arrow.
+    pub const ARROW: i32 = 0;
+    /// Line strip.
+    pub const LINE_STRIP: i32 = 4;
+    /// Add or modify.
+    pub const ADD: i32 = 0;
+    /// Delete this marker.
+    pub const DELETE: i32 = 2;
+    /// Delete every marker (of this namespace, since Humble).
+    pub const DELETEALL: i32 = 3;
+}
+
+/// `visualization_msgs/msg/MarkerArray`.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct MarkerArray {
+    /// Markers.
+    pub markers: Vec<Marker>,
+}
+
+/// The DDS type of [`MarkerArray`].
+pub const MARKER_ARRAY: TypeName = ("visualization_msgs", "MarkerArray");
+
+/// `cliff_msgs/msg/Point2`.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+pub struct Point2 {
+    /// x (m).
+    pub x: f32,
+    /// y (m).
+    pub y: f32,
+}
+
+/// `cliff_msgs/msg/PersonPrediction`.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct PersonPrediction {
+    /// The tracker's id.
+    pub track_id: String,
+    /// Time of the last observation.
+    pub stamp: Time,
+    /// Observations predicted from.
+    pub history: u32,
+    /// Last observed position.
+    pub origin: Point2,
+    /// Points per sample.
+    pub lengths: Vec<u32>,
+    /// The samples' points, one sample after the other.
+    pub points: Vec<Point2>,
+    /// One score per sample, or empty.
+    pub scores: Vec<f32>,
+}
+
+/// `cliff_msgs/msg/Predictions`.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct Predictions {
+    /// Newest input stamp and the map frame.
+    pub header: Header,
+    /// Seconds between points.
+    pub dt: f64,
+    /// Horizon (s).
+    pub horizon: f64,
+    /// Samples per person.
+    pub k: u32,
+    /// Method name.
+    pub method: String,
+    /// Map name or file.
+    pub map: String,
+    /// Seed.
+    pub seed: u64,
+    /// One per predicted person.
+    pub people: Vec<PersonPrediction>,
+}
+
+/// The DDS type of [`Predictions`].
+pub const PREDICTIONS: TypeName = ("cliff_msgs", "Predictions");
+
+impl ros2_client::Message for People {}
+impl ros2_client::Message for MarkerArray {}
+impl ros2_client::Message for Predictions {}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn time_round_trips_through_seconds() {
+        for t in [0.0, 1.5, 1_351_700_000.123_456_789, -0.25, 12.4] {
+            let s = Time::from_secs_f64(t);
+            assert!(s.nanosec < 1_000_000_000);
+            assert!((s.as_secs_f64() - t).abs() < 1e-6, "{t} -> {s:?}");
+        }
+        assert_eq!(
+            Time::from_secs_f64(0.9999999999),
+            Time { sec: 1, nanosec: 0 }
+        );
+        assert_eq!(Time::from_secs_f64(f64::NAN), Time::default());
+        assert_eq!(Time::from_secs_f64(1e300).sec, i32::MAX);
+    }
+
+    #[test]
+    fn yaw_quaternion_is_unit() {
+        let q = Quaternion::from_yaw(1.0);
+        assert!(((q.z * q.z + q.w * q.w) - 1.0).abs() < 1e-12);
+        assert_eq!(Quaternion::default().w, 1.0);
+    }
+}

@@ -1,0 +1,257 @@
+//! The ROS 2 side: a DDS participant (RustDDS through ros2-client), the people
+//! subscription, the three publishers, and the loop that drives the [`Engine`].
+
+use std::time::{Duration, Instant};
+
+use anyhow::{Context as _, Result};
+use ros2_client::dds::rustdds::mio1::{Events, Interest, Poll, Token};
+use ros2_client::{
+    Context, ContextOptions, MessageTypeName, Name, NodeName, NodeOptions, QosProfile,
+    qos::{Durability, History, WhenFull},
+};
+
+use crate::engine::Engine;
+use crate::markers::{self, MarkerStyle};
+use crate::msg::{self, MarkerArray, People, Predictions};
+use crate::predictor::Predictor;
+use crate::settings::Settings;
+use crate::tracks::Keeper;
+
+/// The absolute name of topic `name` in `namespace` (a relative name resolves in it).
+pub fn resolve(namespace: &str, name: &str) -> String {
+    if name.starts_with('/') {
+        name.to_string()
+    } else {
+        format!("{}/{name}", namespace.trim_end_matches('/'))
+    }
+}
+
+fn topic_name(full: &str) -> Result<Name> {
+    Name::parse(full).map_err(|e| anyhow::anyhow!("topic name '{full}': {e:?}"))
+}
+
+fn type_name((pkg, ty): msg::TypeName) -> MessageTypeName {
+    MessageTypeName::new(pkg, ty)
+}
+
+/// Run the node until the process is stopped. `domain_id`: the DDS domain.
+pub fn run(settings: Settings, domain_id: u16) -> Result<()> {
+    let p = &settings.params;
+    let predictor = Predictor::new(&p.source(), p.predict())?;
+    let map_for_markers = match predictor.local_maps() {
+        Some(set) => Some(set.all_day().clone()),
+        None if !p.map_markers_file.is_empty() => Some(std::sync::Arc::new(
+            cliff::map::CliffMap::load(&p.map_markers_file)
+                .with_context(|| format!("loading map_markers_file {}", p.map_markers_file))?,
+        )),
+        None => None,
+    };
+    let style = MarkerStyle {
+        width: p.marker_width,
+        lifetime: p.marker_lifetime,
+        z: 0.0,
+    };
+    let mut engine = Engine::new(
+        Keeper::new(p.keeper()),
+        predictor,
+        style,
+        Duration::from_secs_f64(p.warn_period),
+    );
+
+    let context = Context::with_options(ContextOptions::new().domain_id(domain_id))
+        .map_err(|e| anyhow::anyhow!("DDS participant on domain {domain_id}: {e:?}"))?;
+    let mut node = context
+        .new_node(
+            NodeName::new(&settings.namespace, &settings.name).map_err(|e| {
+                anyhow::anyhow!(
+                    "node name '{}' in '{}': {e:?}",
+                    settings.name,
+                    settings.namespace
+                )
+            })?,
+            NodeOptions::new().enable_rosout(false),
+        )
+        .map_err(|e| anyhow::anyhow!("creating the node: {e:?}"))?;
+
+    let input_qos = if p.best_effort()? {
+        QosProfile::subscription_default().history(History::KeepLast { depth: 10 })
+    } else {
+        QosProfile::subscription_default()
+            .reliability_reliable(WhenFull::DEFAULT)
+            .history(History::KeepLast { depth: 10 })
+    };
+    let out_qos = QosProfile::publisher_default()
+        .reliability_reliable(WhenFull::Wait(Duration::from_millis(5)))
+        .durability(Durability::Volatile)
+        .history(History::KeepLast { depth: 2 });
+    let latched = QosProfile::publisher_default()
+        .reliability_reliable(WhenFull::DEFAULT)
+        .durability(Durability::TransientLocal)
+        .history(History::KeepLast { depth: 1 });
+
+    let t: std::collections::BTreeMap<&str, String> = settings
+        .topics
+        .iter()
+        .map(|(k, v)| (*k, resolve(&settings.namespace, v)))
+        .collect();
+    let t = &t;
+    let people_topic = node
+        .create_topic(
+            &topic_name(&t["people"])?,
+            type_name(msg::PEOPLE),
+            &input_qos,
+        )
+        .map_err(|e| anyhow::anyhow!("topic {}: {e:?}", t["people"]))?;
+    let mut people_sub = node
+        .create_subscription::<People>(&people_topic, None)
+        .map_err(|e| anyhow::anyhow!("subscribing {}: {e:?}", t["people"]))?;
+    let pred_topic = node
+        .create_topic(
+            &topic_name(&t["predictions"])?,
+            type_name(msg::PREDICTIONS),
+            &out_qos,
+        )
+        .map_err(|e| anyhow::anyhow!("topic {}: {e:?}", t["predictions"]))?;
+    let pred_pub = node
+        .create_publisher::<Predictions>(&pred_topic, None)
+        .map_err(|e| anyhow::anyhow!("publisher {}: {e:?}", t["predictions"]))?;
+    let marker_topic = node
+        .create_topic(
+            &topic_name(&t["markers"])?,
+            type_name(msg::MARKER_ARRAY),
+            &out_qos,
+        )
+        .map_err(|e| anyhow::anyhow!("topic {}: {e:?}", t["markers"]))?;
+    let marker_pub = node
+        .create_publisher::<MarkerArray>(&marker_topic, None)
+        .map_err(|e| anyhow::anyhow!("publisher {}: {e:?}", t["markers"]))?;
+    let map_topic = node
+        .create_topic(
+            &topic_name(&t["map_markers"])?,
+            type_name(msg::MARKER_ARRAY),
+            &latched,
+        )
+        .map_err(|e| anyhow::anyhow!("topic {}: {e:?}", t["map_markers"]))?;
+    let map_pub = node
+        .create_publisher::<MarkerArray>(&map_topic, None)
+        .map_err(|e| anyhow::anyhow!("publisher {}: {e:?}", t["map_markers"]))?;
+    if let Some(map) = &map_for_markers {
+        let arrows = markers::map_arrows(map, &p.map_frame, p.map_arrow_seconds);
+        tracing::info!(
+            "map: {} arrows on {} (latched)",
+            arrows.markers.len() - 1,
+            t["map_markers"]
+        );
+        if let Err(e) = map_pub.publish(arrows) {
+            tracing::warn!("publishing the map markers: {e:?}");
+        }
+    }
+
+    let mut poll = Poll::new().context("mio poll")?;
+    poll.registry()
+        .register(&mut people_sub, Token(1), Interest::READABLE)
+        .context("registering the people subscription")?;
+    let mut events = Events::with_capacity(16);
+    let period = (p.rate > 0.0).then(|| Duration::from_secs_f64(1.0 / p.rate));
+    let mut next = Instant::now() + period.unwrap_or(Duration::from_millis(100));
+    tracing::info!(
+        "node {}{}{} on domain {domain_id}: {} -> {}, {}; predicting {} ({}), k {}, {} s at {} s, {}",
+        settings.namespace,
+        if settings.namespace.ends_with('/') {
+            ""
+        } else {
+            "/"
+        },
+        settings.name,
+        t["people"],
+        t["predictions"],
+        t["markers"],
+        engine.predictor().map_label(),
+        if engine.predictor().local_maps().is_some() {
+            "in-process"
+        } else {
+            "through cliffd"
+        },
+        p.k,
+        p.horizon,
+        p.dt,
+        match period {
+            Some(d) => format!("every {:.3} s", d.as_secs_f64()),
+            None => "on each input".to_string(),
+        }
+    );
+
+    let publish = |out: crate::engine::Output| {
+        if let Some(pr) = out.predictions {
+            if let Err(e) = pred_pub.publish(pr) {
+                tracing::warn!("publishing predictions: {e:?}");
+            }
+        }
+        if !out.markers.markers.is_empty() {
+            if let Err(e) = marker_pub.publish(out.markers) {
+                tracing::warn!("publishing markers: {e:?}");
+            }
+        }
+    };
+
+    loop {
+        let timeout = next.saturating_duration_since(Instant::now());
+        if let Err(e) = poll.poll(&mut events, Some(timeout)) {
+            if e.kind() != std::io::ErrorKind::Interrupted {
+                return Err(e).context("poll");
+            }
+        }
+        let mut got = false;
+        loop {
+            match people_sub.take() {
+                Ok(Some((m, _info))) => {
+                    engine.on_people(&m, Instant::now());
+                    got = true;
+                    if period.is_none() {
+                        publish(engine.cycle(Instant::now()));
+                    }
+                }
+                Ok(None) => break,
+                Err(e) => engine.on_malformed(&e.to_string(), Instant::now()),
+            }
+        }
+        let now = Instant::now();
+        if now >= next {
+            match period {
+                Some(d) => {
+                    publish(engine.cycle(now));
+                    next += d;
+                    if next < now {
+                        next = now + d;
+                    }
+                }
+                None => {
+                    // on-input mode: still forget stale tracks (and delete their markers)
+                    if !got {
+                        let deletions = engine.expire(now);
+                        if !deletions.markers.is_empty() {
+                            let _ = marker_pub.publish(deletions);
+                        }
+                    }
+                    next = now + Duration::from_millis(100);
+                }
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn relative_names_resolve_in_the_namespace() {
+        assert_eq!(resolve("/", "people"), "/people");
+        assert_eq!(resolve("/robot", "cliff/markers"), "/robot/cliff/markers");
+        assert_eq!(resolve("/robot/", "people"), "/robot/people");
+        assert_eq!(resolve("/robot", "/people"), "/people");
+        let n = topic_name("/robot/cliff/markers").unwrap();
+        let node = NodeName::new("/robot", "x").unwrap();
+        assert_eq!(n.to_dds_name("rt", &node, ""), "rt/robot/cliff/markers");
+    }
+}

@@ -1,0 +1,363 @@
+//! Where predictions come from: a running `cliffd` (through `cliff-client`, shared
+//! memory) or an in-process [`LocalPredictor`] on a map file. Both decode the same
+//! request the same way, so the same histories and seed give the same numbers.
+
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use cliff::map::{CliffMap, MapSet};
+use cliff::predict::{Method, Params};
+use cliff_client::protocol::Limits;
+use cliff_client::{
+    Client, ClientOptions, Error as ClientError, LocalPredictor, MapTime, Observation, Request,
+};
+
+/// Which map of the time of day to predict with.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum TimeOfDay {
+    /// The slice holding the input stamp plus the clock offset.
+    #[default]
+    Stamp,
+    /// The all-day map.
+    AllDay,
+    /// The slice of the wall clock now (the daemon's clock for a daemon).
+    Now,
+}
+
+impl std::str::FromStr for TimeOfDay {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "stamp" => Ok(TimeOfDay::Stamp),
+            "all-day" | "all_day" => Ok(TimeOfDay::AllDay),
+            "now" => Ok(TimeOfDay::Now),
+            _ => Err(format!(
+                "unknown time_of_day '{s}' (expected stamp, all-day or now)"
+            )),
+        }
+    }
+}
+
+/// What a prediction asks for.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PredictSettings {
+    /// Method, samples, step, horizon, kernel, radius, seed.
+    pub params: Params,
+    /// Score every sample.
+    pub scores: bool,
+    /// Which map of a time-of-day set.
+    pub time_of_day: TimeOfDay,
+    /// Seconds added to the stamps to get the map's clock.
+    pub clock_offset: f64,
+}
+
+impl Default for PredictSettings {
+    fn default() -> Self {
+        PredictSettings {
+            params: Params::default(),
+            scores: false,
+            time_of_day: TimeOfDay::Stamp,
+            clock_offset: 0.0,
+        }
+    }
+}
+
+/// The method's name as in the messages and settings.
+pub fn method_name(m: Method) -> &'static str {
+    match m {
+        Method::Cliff => "cliff",
+        Method::Cvm => "cvm",
+        Method::Improved => "improved",
+    }
+}
+
+/// Where predictions come from.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Source {
+    /// A `cliffd` serving `service` with a map named `map`.
+    Daemon {
+        /// iceoryx2 service name.
+        service: String,
+        /// The map's name at the daemon.
+        map: String,
+        /// Deadline of one call.
+        deadline: Duration,
+    },
+    /// In-process from this map file (a time-of-day set or one map).
+    Local(PathBuf),
+    /// In-process on the built-in demo scene.
+    Demo,
+}
+
+/// The predicted samples of one cycle: `agents x k` samples of up to `steps` points
+/// (`positions` holds `steps` slots per sample, `lens` the filled ones).
+#[derive(Debug, Clone, Default)]
+pub struct Samples {
+    /// Agents.
+    pub agents: usize,
+    /// Samples per agent.
+    pub k: usize,
+    /// Slots per sample.
+    pub steps: usize,
+    /// Points, `(agent * k + sample) * steps + step`.
+    pub positions: Vec<[f32; 2]>,
+    /// Filled points per sample.
+    pub lens: Vec<u32>,
+    /// Scores per sample, or empty.
+    pub scores: Vec<f32>,
+}
+
+impl Samples {
+    /// Sample `s` of agent `a`.
+    pub fn sample(&self, a: usize, s: usize) -> &[[f32; 2]] {
+        let i = a * self.k + s;
+        let start = i * self.steps;
+        &self.positions[start..start + self.lens[i] as usize]
+    }
+
+    /// Score of sample `s` of agent `a`.
+    pub fn score(&self, a: usize, s: usize) -> Option<f32> {
+        self.scores.get(a * self.k + s).copied()
+    }
+
+    fn clear(&mut self, k: usize, steps: usize) {
+        self.agents = 0;
+        self.k = k;
+        self.steps = steps;
+        self.positions.clear();
+        self.lens.clear();
+        self.scores.clear();
+    }
+
+    fn append(&mut self, agents: usize, positions: &[[f32; 2]], lens: &[u32], scores: &[f32]) {
+        self.agents += agents;
+        self.positions.extend_from_slice(positions);
+        self.lens.extend_from_slice(lens);
+        self.scores.extend_from_slice(scores);
+    }
+}
+
+/// Why a cycle has no prediction.
+#[derive(Debug, thiserror::Error)]
+pub enum PredictError {
+    /// The daemon is not there (not started yet, restarting): no prediction until it is.
+    #[error("cliffd unavailable: {0}")]
+    Unavailable(String),
+    /// The request was refused (by the daemon or the in-process decoder).
+    #[error("prediction refused: {0}")]
+    Refused(String),
+}
+
+enum Backend {
+    Daemon {
+        service: String,
+        options: ClientOptions,
+        client: Option<Client>,
+        next_try: Instant,
+    },
+    Local {
+        maps: MapSet,
+        predictor: LocalPredictor,
+    },
+}
+
+/// Predicts histories in requests of at most [`Limits::max_agents`] agents each; chunk
+/// `c` (0-based) is seeded with `seed + c`.
+pub struct Predictor {
+    backend: Backend,
+    map_label: String,
+    settings: PredictSettings,
+    request: Request,
+    chunk: usize,
+    samples: Samples,
+}
+
+/// How long to wait between two attempts to reach an absent daemon.
+const RECONNECT: Duration = Duration::from_millis(500);
+
+impl Predictor {
+    /// A predictor from `source` with `settings`. A map file is loaded here (an error
+    /// names it); a daemon is only looked for on the first prediction.
+    pub fn new(source: &Source, settings: PredictSettings) -> anyhow::Result<Predictor> {
+        use anyhow::Context as _;
+        let (backend, map_name, map_label) = match source {
+            Source::Daemon {
+                service,
+                map,
+                deadline,
+            } => (
+                Backend::Daemon {
+                    service: service.clone(),
+                    options: ClientOptions {
+                        deadline: *deadline,
+                        ..ClientOptions::default()
+                    },
+                    client: None,
+                    next_try: Instant::now(),
+                },
+                map.clone(),
+                map.clone(),
+            ),
+            Source::Local(path) => {
+                let maps = MapSet::load(path)
+                    .with_context(|| format!("loading map {}", path.display()))?;
+                (
+                    Backend::Local {
+                        maps,
+                        predictor: LocalPredictor::new(Limits::default()),
+                    },
+                    "local".to_string(),
+                    path.display().to_string(),
+                )
+            }
+            Source::Demo => (
+                Backend::Local {
+                    maps: MapSet::single(CliffMap::demo()),
+                    predictor: LocalPredictor::new(Limits::default()),
+                },
+                "demo".to_string(),
+                "demo".to_string(),
+            ),
+        };
+        let mut request = Request::new(&map_name, &settings.params)
+            .map_err(|e| anyhow::anyhow!("map name '{map_name}': {e}"))?;
+        request = request.scores(settings.scores);
+        let chunk = Limits::default().max_agents as usize;
+        Ok(Predictor {
+            backend,
+            map_label,
+            settings,
+            request,
+            chunk,
+            samples: Samples::default(),
+        })
+    }
+
+    /// The map as the messages name it.
+    pub fn map_label(&self) -> &str {
+        &self.map_label
+    }
+
+    /// The settings.
+    pub fn settings(&self) -> &PredictSettings {
+        &self.settings
+    }
+
+    /// Agents per request.
+    pub fn chunk(&self) -> usize {
+        self.chunk
+    }
+
+    /// The in-process map set (None for a daemon).
+    pub fn local_maps(&self) -> Option<&MapSet> {
+        match &self.backend {
+            Backend::Local { maps, .. } => Some(maps),
+            Backend::Daemon { .. } => None,
+        }
+    }
+
+    /// Whether a daemon connection is up (always true in-process).
+    pub fn connected(&self) -> bool {
+        match &self.backend {
+            Backend::Local { .. } => true,
+            Backend::Daemon { client, .. } => client.is_some(),
+        }
+    }
+
+    /// Predict every history of `agents` (each oldest first, at least two rows) at
+    /// stamp `stamp` (s, the newest input stamp).
+    pub fn predict<'h, I>(&mut self, agents: I, stamp: f64) -> Result<&Samples, PredictError>
+    where
+        I: IntoIterator,
+        I::Item: IntoIterator<Item = (f64, f64, f64)>,
+    {
+        let p = &self.settings.params;
+        let steps = p.steps();
+        self.samples.clear(p.k, steps);
+        let when = match self.settings.time_of_day {
+            TimeOfDay::Stamp => MapTime::At(stamp + self.settings.clock_offset),
+            TimeOfDay::AllDay => MapTime::AllDay,
+            TimeOfDay::Now => MapTime::Now,
+        };
+        self.request.set_map_time(when);
+        let seed = p.seed;
+        let mut chunk = 0u64;
+        self.request.clear_agents();
+        let mut agents = agents.into_iter().peekable();
+        while agents.peek().is_some() {
+            let history = agents.next().expect("peeked");
+            self.request.add_agent(
+                history
+                    .into_iter()
+                    .map(|(t, x, y)| Observation::position(t, x, y)),
+            );
+            if self.request.agents() == self.chunk || agents.peek().is_none() {
+                self.request.set_seed(seed.wrapping_add(chunk));
+                Self::run(&mut self.backend, &self.request, when, &mut self.samples)?;
+                self.request.clear_agents();
+                chunk += 1;
+            }
+        }
+        Ok(&self.samples)
+    }
+
+    fn run(
+        backend: &mut Backend,
+        request: &Request,
+        when: MapTime,
+        out: &mut Samples,
+    ) -> Result<(), PredictError> {
+        match backend {
+            Backend::Local { maps, predictor } => {
+                let map: &Arc<CliffMap> = when.map_in(maps);
+                let b = predictor
+                    .predict(map, request.header(), request.rows())
+                    .map_err(|r| PredictError::Refused(r.to_string()))?;
+                let (agents, _, _) = b.shape();
+                out.append(agents, b.positions(), b.lens(), b.scores());
+                Ok(())
+            }
+            Backend::Daemon {
+                service,
+                options,
+                client,
+                next_try,
+            } => {
+                if client.is_none() {
+                    let now = Instant::now();
+                    if now < *next_try {
+                        return Err(PredictError::Unavailable(format!(
+                            "no cliffd serves '{service}' yet"
+                        )));
+                    }
+                    *next_try = now + RECONNECT;
+                    match Client::connect_with(service, options.clone()) {
+                        Ok(c) => *client = Some(c),
+                        Err(e) => return Err(PredictError::Unavailable(e.to_string())),
+                    }
+                }
+                let c = client.as_mut().expect("connected above");
+                match c.predict(request) {
+                    Ok(p) => {
+                        let (agents, _, _) = p.shape();
+                        let scores = if p.has_scores() { p.scores() } else { &[] };
+                        out.append(agents, p.positions(), p.lens(), scores);
+                        Ok(())
+                    }
+                    Err(
+                        e @ (ClientError::NoDaemon { .. }
+                        | ClientError::DaemonGone { .. }
+                        | ClientError::Deadline { .. }),
+                    ) => Err(PredictError::Unavailable(e.to_string())),
+                    Err(e @ ClientError::Ipc(_)) => {
+                        // rebuild the connection on the next try
+                        *client = None;
+                        Err(PredictError::Unavailable(e.to_string()))
+                    }
+                    Err(e) => Err(PredictError::Refused(e.to_string())),
+                }
+            }
+        }
+    }
+}

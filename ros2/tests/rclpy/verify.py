@@ -1,0 +1,179 @@
+"""Check what cliff-ros2 published against what the publisher sent.
+
+The track rules are replayed here independently (per id: the newest stamps; a track
+is forgotten once the newest input stamp is more than --timeout past its last
+observation; predicted from the observations within --history-seconds of its newest,
+when there are two or more; in the order the ids were first seen), the histories so
+found are predicted in-process by cliff-ros2-reference (cliff-client's Request and
+LocalPredictor, the code path of `cliff predict` and cliffd) and the node's points must
+equal the reference's exactly (float32 for float32). Prints one line per check and
+`N passed, N failed`; exits 1 on any failure.
+"""
+import argparse
+import json
+import struct
+import subprocess
+import sys
+
+
+def f32(v):
+    return struct.unpack("f", struct.pack("f", v))[0]
+
+
+def secs(s):
+    return float(s[0]) + float(s[1]) * 1e-9
+
+
+class Results:
+    def __init__(self, name):
+        self.name, self.passed, self.failed = name, 0, 0
+
+    def check(self, ok, what, detail=""):
+        if ok:
+            self.passed += 1
+            print(f"ok   {self.name}: {what}")
+        else:
+            self.failed += 1
+            print(f"FAIL {self.name}: {what}" + (f": {detail}" if detail else ""))
+
+
+def replay(sent, timeout, history_seconds):
+    """Expected (ids, histories) after each published message, by stamp."""
+    order, obs = [], {}
+    newest = None
+    out = {}
+    for m in sent:
+        t = secs(m["stamp"])
+        newest = t if newest is None or t > newest else newest
+        for name, x, y in m["people"]:
+            if name not in obs:
+                order.append(name)
+                obs[name] = []
+            if not obs[name] or t > secs(obs[name][-1][:2]):
+                obs[name].append((m["stamp"][0], m["stamp"][1], x, y))
+        for name in list(order):
+            if secs(obs[name][-1][:2]) < newest - timeout:
+                order.remove(name)
+                del obs[name]
+        ids, hist = [], []
+        for name in order:
+            h = obs[name]
+            last = secs(h[-1][:2])
+            w = [o for o in h if secs(o[:2]) >= last - history_seconds - 1e-3] if history_seconds > 0 else list(h)
+            if len(w) >= 2:
+                ids.append(name)
+                hist.append([list(o) for o in w])
+        out[tuple(m["stamp"])] = (ids, hist)
+    return out
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--name", default="rclpy")
+    ap.add_argument("--sent", required=True)
+    ap.add_argument("--received", required=True)
+    ap.add_argument("--reference", required=True, help="the cliff-ros2-reference binary")
+    ap.add_argument("--map", required=True)
+    ap.add_argument("--map-components", type=int, default=-1)
+    ap.add_argument("--map-label", default=None, help="the map as the messages must name it")
+    ap.add_argument("--k", type=int, default=20)
+    ap.add_argument("--method", default="cliff")
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--horizon", type=float, default=12.0)
+    ap.add_argument("--dt", type=float, default=0.4)
+    ap.add_argument("--timeout", type=float, default=2.0)
+    ap.add_argument("--history-seconds", type=float, default=3.2)
+    ap.add_argument("--min-received", type=float, default=0.95)
+    a = ap.parse_args()
+    r = Results(a.name)
+
+    sent = json.load(open(a.sent))
+    got = json.load(open(a.received))
+    preds = got["predictions"]
+    r.check(len(sent) > 0 and len(preds) >= a.min_received * len(sent),
+            f"{len(preds)} predictions for {len(sent)} people messages",
+            f"expected at least {a.min_received:.0%}")
+
+    expected = replay(sent, a.timeout, a.history_seconds)
+    bad_meta, bad_rules, cycles = [], [], []
+    for p in preds:
+        key = tuple(p["stamp"])
+        label = a.map if a.map_label is None else a.map_label
+        if (p["frame"], p["method"], p["k"], p["seed"], p["dt"], p["horizon"], p["map"]) != ("map", a.method, a.k, a.seed, a.dt, a.horizon, label):
+            bad_meta.append(key)
+        if key not in expected:
+            bad_rules.append((key, "stamp not published"))
+            continue
+        ids, hist = expected[key]
+        mine = [q["track_id"] for q in p["people"]]
+        lens = [q["history"] for q in p["people"]]
+        if mine != ids or lens != [len(h) for h in hist]:
+            bad_rules.append((key, f"node {list(zip(mine, lens))} expected {list(zip(ids, [len(h) for h in hist]))}"))
+            continue
+        if ids:
+            cycles.append((p, {"stamp": list(key), "agents": hist}))
+    r.check(not bad_meta, "frame, method, map, k, seed, dt and horizon as set", str(bad_meta[:3]))
+    r.check(not bad_rules, f"the people predicted and their histories follow the track rules ({len(preds)} messages)",
+            str(bad_rules[:2]))
+    people = sum(len(p["people"]) for p, _ in cycles)
+    r.check(people > 0, f"{people} person predictions in {len(cycles)} messages to compare")
+
+    ref_in = {"map": a.map, "method": a.method, "k": a.k, "horizon": a.horizon, "dt": a.dt,
+              "seed": a.seed, "scores": False, "cycles": [c for _, c in cycles]}
+    res = subprocess.run([a.reference], input=json.dumps(ref_in), capture_output=True, text=True)
+    if res.returncode != 0:
+        r.check(False, "reference ran", res.stderr.strip())
+    else:
+        ref = json.loads(res.stdout)["cycles"]
+        mism = []
+        for (p, c), rc in zip(cycles, ref):
+            for q, rq in zip(p["people"], rc["people"]):
+                pts = [[f32(x), f32(y)] for x, y in rq["points"]]
+                if q["lengths"] != rq["lengths"] or q["points"] != pts:
+                    mism.append((p["stamp"], q["track_id"]))
+                last = c["agents"][p["people"].index(q)][-1]
+                if q["origin"] != [f32(last[2]), f32(last[3])] or q["stamp"] != [last[0], last[1]]:
+                    mism.append((p["stamp"], q["track_id"], "origin"))
+        r.check(not mism and len(ref) == len(cycles),
+                f"positions equal the in-process reference for the same histories and seed ({people} people)",
+                f"{len(mism)} differ, first {mism[:3]}")
+
+    # markers: the arrays with line strips, in order, match the predictions with people
+    adds = [m for m in got["markers"] if any(k["action"] == 0 for k in m)]
+    with_people = [p for p in preds if p["people"]]
+    bad = []
+    for p, m in zip(with_people, adds):
+        strips = [k for k in m if k["action"] == 0]
+        if len(strips) != len(p["people"]) * a.k:
+            bad.append((p["stamp"], "count"))
+            continue
+        i = 0
+        for q in p["people"]:
+            start = 0
+            for s, n in enumerate(q["lengths"]):
+                k = strips[i]
+                i += 1
+                want = [q["origin"]] + q["points"][start:start + n]
+                if n == 0:
+                    want = [q["origin"], q["origin"]]
+                start += n
+                if k["type"] != 4 or k["frame"] != "map" or k["points"] != want:
+                    bad.append((p["stamp"], q["track_id"], s))
+    r.check(len(adds) >= a.min_received * len(with_people) and not bad,
+            f"{len(adds)} marker arrays of line strips equal the predicted samples", str(bad[:3]))
+    dels = sum(1 for m in got["markers"] for k in m if k["action"] == 2)
+    r.check(dels > 0 and dels % a.k == 0, f"markers of ended tracks deleted ({dels // a.k} tracks)")
+
+    mm = got["map_markers"]
+    ok = len(mm) >= 1 and all(k["type"] == 0 for k in mm[0][1:]) and mm[0][0]["action"] == 3
+    if a.map_components >= 0 and mm:
+        ok = ok and len(mm[0]) == a.map_components + 1
+    r.check(ok, f"the map as latched arrows ({len(mm[0]) - 1 if mm else 0} arrows)")
+
+    print(f"{r.name}: {r.passed} passed, {r.failed} failed")
+    return r
+
+
+if __name__ == "__main__":
+    res = main()
+    sys.exit(1 if res.failed else 0)

@@ -1,0 +1,86 @@
+#!/usr/bin/env bash
+# cliff-ros2 against a real ROS 2 (Jazzy from its PyPI wheels, rclpy over Fast DDS):
+# an rclpy node publishes THÖR1 round 2 as people_msgs/People at 2.5 Hz, cliff-ros2
+# predicts in-process from the THÖR1 map, an rclpy node receives the predictions and
+# markers, and verify.py compares them with the in-process reference for the same
+# histories and seed. Every ROS 2 process runs in a private network namespace
+# (loopback only). Closes with `N passed, N failed`; exits non-zero on a failure.
+#
+#   bash ros2/tests/run_rclpy.sh            # FRAMES=100 (40 s of the recording)
+set -uo pipefail
+here="$(cd "$(dirname "$0")" && pwd)"   # ros2/tests
+ros2="$(dirname "$here")"
+repo="$(dirname "$ros2")"
+data="${CLIFF_DATA:-$repo/../shared/data}"
+frames="${FRAMES:-100}"
+passed=0
+failed=0
+t0=$SECONDS
+
+finish() {
+  echo "ros2 tests took $((SECONDS - t0)) s"
+  echo "$passed passed, $failed failed"
+  [ "$failed" -eq 0 ]
+  exit $?
+}
+
+if ! bash "$here/setup_ros2.sh"; then
+  echo "FAIL setup: ROS 2 wheels or message packages"; failed=$((failed + 1)); finish
+fi
+if ! (cd "$repo" && cargo build --release -p cliff-ros2 --quiet && cargo build --release -p cliff-service --bin cliffd --quiet); then
+  echo "FAIL build: cliff-ros2 and cliffd"; failed=$((failed + 1)); finish
+fi
+target="${CARGO_TARGET_DIR:-$repo/target}/release"
+map="$data/thor1/cliffmap.csv"
+tracks="$data/thor1/exp-1-run-2.csv"
+components=$(grep -c . "$map")
+# shellcheck disable=SC1091
+. "$here/ros2_env.sh"
+
+# scenario NAME DAEMON_ARGS NODE_ARGS... : run the processes in a fresh network
+# namespace (cliff-ros2 first; then cliffd with DAEMON_ARGS unless it is "-"; then the
+# rclpy listener and publisher), then verify
+scenario() {
+  local name="$1"; local daemon="$2"; local label="$3"; shift 3
+  local tmp; tmp="$(mktemp -d)"
+  local t1=$SECONDS
+  unshare -n bash -c '
+    ip link set lo up; ip link set lo multicast on; ip route add 224.0.0.0/4 dev lo
+    export ROS_DOMAIN_ID=42
+    tmp="$1"; target="$2"; here="$3"; tracks="$4"; frames="$5"; daemon="$6"; shift 6
+    export CLIFF_IPC_PREFIX="cliffros2test$$"
+    "$target/cliff-ros2" "$@" >"$tmp/node.log" 2>&1 & node=$!
+    dpid=""
+    if [ "$daemon" != "-" ]; then
+      sleep 1   # the node first: it must find the daemon by itself
+      # shellcheck disable=SC2086
+      "$target/cliffd" $daemon >"$tmp/cliffd.log" 2>&1 & dpid=$!
+      for _ in $(seq 100); do grep -q ready "$tmp/cliffd.log" && break; sleep 0.1; done
+    fi
+    python "$here/rclpy/listen.py" --ready "$tmp/ready" --done "$tmp/sent.json" --out "$tmp/received.json" \
+      2>"$tmp/listen.log" & listener=$!
+    python "$here/rclpy/publish_people.py" --tracks "$tracks" --frames "$frames" \
+      --wait-for "$tmp/ready" --out "$tmp/sent.json" 2>"$tmp/publish.log"
+    wait $listener
+    kill $node 2>/dev/null; wait $node 2>/dev/null
+    if [ -n "$dpid" ]; then kill $dpid 2>/dev/null; wait $dpid 2>/dev/null; fi
+    true' _ "$tmp" "$target" "$here" "$tracks" "$frames" "$daemon" "$@"
+  echo "scenario $name ran in $((SECONDS - t1)) s (logs in $tmp)"
+  if [ ! -s "$tmp/sent.json" ] || [ ! -s "$tmp/received.json" ]; then
+    echo "FAIL $name: no exchange"; tail -n 5 "$tmp"/*.log; failed=$((failed + 1)); return
+  fi
+  local out
+  out="$(python "$here/rclpy/verify.py" --name "$name" --sent "$tmp/sent.json" --received "$tmp/received.json" \
+      --reference "$target/cliff-ros2-reference" --map "$map" --map-components "$components" \
+      --map-label "$label" --timeout 1.8)"
+  echo "$out" | grep -v ' passed, .* failed$'
+  local p f
+  p=$(echo "$out" | grep -c '^ok ')
+  f=$(echo "$out" | grep -c '^FAIL ')
+  passed=$((passed + p)); failed=$((failed + f))
+  [ "$f" -eq 0 ] || tail -20 "$tmp/node.log"
+}
+
+scenario in-process - "$map" --map "$map" -p rate:=0.0 -p track_timeout:=1.8
+scenario cliffd "--map thor1=$map" thor1 -p daemon_map:=thor1 -p map_markers_file:="$map" -p rate:=0.0 -p track_timeout:=1.8
+finish
