@@ -106,15 +106,15 @@ impl Engine {
             |k| skipped[k.index()] = true,
         );
         for k in Skip::ALL {
-            if skipped[k.index()] {
-                if let Some(held) = warn[k.index()].check(now) {
-                    tracing::warn!(
-                        "people input skipped: {} (frame '{frame}', stamp {stamp:.3}, map frame '{}'); {} so far, {held} warnings held back",
-                        k.name(),
-                        keeper.settings().frame_id,
-                        keeper.count(k)
-                    );
-                }
+            if skipped[k.index()]
+                && let Some(held) = warn[k.index()].check(now)
+            {
+                tracing::warn!(
+                    "people input skipped: {} (frame '{frame}', stamp {stamp:.3}, map frame '{}'); {} so far, {held} warnings held back",
+                    k.name(),
+                    keeper.settings().frame_id,
+                    keeper.count(k)
+                );
             }
         }
     }
@@ -176,7 +176,7 @@ impl Engine {
                 self.selected.push(i);
             }
         }
-        let p = self.predictor.settings().params.clone();
+        let p = self.predictor.settings().params;
         let map = self.predictor.map_label().to_string();
         let tracks = self.keeper.tracks();
         let selected = &self.selected;

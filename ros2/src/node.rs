@@ -182,24 +182,24 @@ pub fn run(settings: Settings, domain_id: u16) -> Result<()> {
     );
 
     let publish = |out: crate::engine::Output| {
-        if let Some(pr) = out.predictions {
-            if let Err(e) = pred_pub.publish(pr) {
-                tracing::warn!("publishing predictions: {e:?}");
-            }
+        if let Some(pr) = out.predictions
+            && let Err(e) = pred_pub.publish(pr)
+        {
+            tracing::warn!("publishing predictions: {e:?}");
         }
-        if !out.markers.markers.is_empty() {
-            if let Err(e) = marker_pub.publish(out.markers) {
-                tracing::warn!("publishing markers: {e:?}");
-            }
+        if !out.markers.markers.is_empty()
+            && let Err(e) = marker_pub.publish(out.markers)
+        {
+            tracing::warn!("publishing markers: {e:?}");
         }
     };
 
     loop {
         let timeout = next.saturating_duration_since(Instant::now());
-        if let Err(e) = poll.poll(&mut events, Some(timeout)) {
-            if e.kind() != std::io::ErrorKind::Interrupted {
-                return Err(e).context("poll");
-            }
+        if let Err(e) = poll.poll(&mut events, Some(timeout))
+            && e.kind() != std::io::ErrorKind::Interrupted
+        {
+            return Err(e).context("poll");
         }
         let mut got = false;
         loop {

@@ -267,7 +267,7 @@ impl Predictor {
 
     /// Predict every history of `agents` (each oldest first, at least two rows) at
     /// stamp `stamp` (s, the newest input stamp).
-    pub fn predict<'h, I>(&mut self, agents: I, stamp: f64) -> Result<&Samples, PredictError>
+    pub fn predict<I>(&mut self, agents: I, stamp: f64) -> Result<&Samples, PredictError>
     where
         I: IntoIterator,
         I::Item: IntoIterator<Item = (f64, f64, f64)>,

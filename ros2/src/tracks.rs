@@ -331,7 +331,7 @@ impl Keeper {
             note(&mut self.counts, &mut out, Skip::ClockJumpedBack);
             self.forget_all();
         }
-        if !(stamp <= self.newest) {
+        if self.newest.is_nan() || stamp > self.newest {
             self.newest = stamp;
         }
         self.last_input = Some(now);
@@ -371,11 +371,9 @@ impl Keeper {
                 continue;
             }
             t.seen_in = msg;
-            if let Some(last) = t.last() {
-                if stamp <= last.t {
-                    note(&mut self.counts, &mut out, Skip::TimeBackwards);
-                    continue;
-                }
+            if t.last().is_some_and(|last| stamp <= last.t) {
+                note(&mut self.counts, &mut out, Skip::TimeBackwards);
+                continue;
             }
             t.push(Obs { t: stamp, x, y });
             t.updated = now;

@@ -86,7 +86,7 @@ fn main() -> Result<()> {
                 "local",
                 &Params {
                     seed: input.seed.wrapping_add(c as u64),
-                    ..params.clone()
+                    ..params
                 },
             )?
             .scores(input.scores);
