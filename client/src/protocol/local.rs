@@ -77,27 +77,12 @@ impl LocalPredictor {
 
 #[cfg(test)]
 mod tests {
-    use cliff::predict::{Options, Params};
+    use cliff::predict::Options;
 
     use super::*;
     use crate::protocol::map_time::MapTime;
+    use crate::protocol::request::fixtures::{header, walk};
     use crate::protocol::validate::DecodeScratch;
-
-    fn header(agents: u32) -> RequestHeader {
-        let mut h = RequestHeader::from_params(&Params::default());
-        h.agents = agents;
-        h.set_map_name("demo").unwrap();
-        h
-    }
-
-    fn walk(agent: u32, n: usize) -> Vec<Observation> {
-        (0..n)
-            .map(|i| Observation {
-                agent,
-                ..Observation::position(i as f64 * 0.4, -10.0 + i as f64 * 0.5, 0.5)
-            })
-            .collect()
-    }
 
     #[test]
     fn local_predictor_matches_the_core_predictor() {

@@ -212,6 +212,33 @@ impl Observation {
     }
 }
 
+/// Requests the protocol's unit tests share: a header for the demo map and a walker's
+/// history.
+#[cfg(test)]
+pub(crate) mod fixtures {
+    use cliff::predict::Params;
+
+    use super::{Observation, RequestHeader};
+
+    /// A header with the default parameters for `agents` agents on the map `demo`.
+    pub(crate) fn header(agents: u32) -> RequestHeader {
+        let mut h = RequestHeader::from_params(&Params::default());
+        h.agents = agents;
+        h.set_map_name("demo").unwrap();
+        h
+    }
+
+    /// `n` rows of agent `agent` walking east at 1.25 m/s, every 0.4 s.
+    pub(crate) fn walk(agent: u32, n: usize) -> Vec<Observation> {
+        (0..n)
+            .map(|i| Observation {
+                agent,
+                ..Observation::position(i as f64 * 0.4, -10.0 + i as f64 * 0.5, 0.5)
+            })
+            .collect()
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

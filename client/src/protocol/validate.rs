@@ -312,22 +312,7 @@ mod tests {
 
     use super::*;
     use crate::protocol::codes::{FLAG_SCORES, TIME_AT, method_code};
-
-    fn header(agents: u32) -> RequestHeader {
-        let mut h = RequestHeader::from_params(&Params::default());
-        h.agents = agents;
-        h.set_map_name("demo").unwrap();
-        h
-    }
-
-    fn walk(agent: u32, n: usize) -> Vec<Observation> {
-        (0..n)
-            .map(|i| Observation {
-                agent,
-                ..Observation::position(i as f64 * 0.4, -10.0 + i as f64 * 0.5, 0.5)
-            })
-            .collect()
-    }
+    use crate::protocol::request::fixtures::{header, walk};
 
     fn reject(h: &RequestHeader, rows: &[Observation]) -> Rejection {
         let mut s = DecodeScratch::new(&Limits::default());
