@@ -4,7 +4,9 @@
 use std::time::{Duration, Instant};
 
 use crate::markers::{self, MarkerStyle};
-use crate::msg::{Header, MarkerArray, People, PersonPrediction, Point2, Predictions, Time};
+use crate::msg::{
+    Header, MarkerArray, People, PersonPrediction, Point2, Predictions, Time, TrackedObjects,
+};
 use crate::predictor::{PredictError, Predictor, method_name};
 use crate::tracks::{Keeper, Skip};
 use crate::warn::RateLimit;
@@ -43,6 +45,7 @@ pub struct Engine {
     selected: Vec<usize>,
     ended: Vec<u32>,
     alphas: Vec<f32>,
+    hex_ids: Vec<[u8; 32]>,
     stats: Stats,
 }
 
@@ -69,6 +72,7 @@ impl Engine {
             selected: Vec::new(),
             ended: Vec::new(),
             alphas: Vec::new(),
+            hex_ids: Vec::new(),
             stats: Stats::default(),
         }
     }
@@ -88,29 +92,60 @@ impl Engine {
         self.stats
     }
 
-    /// Apply a people message.
+    /// Apply a people message (`name` is the track id).
     pub fn on_people(&mut self, msg: &People, now: Instant) {
+        let people = msg
+            .people
+            .iter()
+            .map(|p| (p.name.as_str(), p.position.x, p.position.y));
+        self.apply("people", &msg.header, people, now);
+    }
+
+    /// Apply a tracked-objects message: its pedestrians (most probable label 7), the
+    /// uuid in hex as the track id; other objects are ignored.
+    pub fn on_tracked_objects(&mut self, msg: &TrackedObjects, now: Instant) {
+        let mut ids = std::mem::take(&mut self.hex_ids);
+        ids.clear();
+        ids.extend(
+            msg.objects
+                .iter()
+                .filter(|o| o.is_pedestrian())
+                .map(|o| o.object_id.hex()),
+        );
+        let people = msg
+            .objects
+            .iter()
+            .filter(|o| o.is_pedestrian())
+            .zip(&ids)
+            .map(|(o, id)| {
+                let p = o.kinematics.pose_with_covariance.pose.position;
+                // hex digits are ASCII
+                (std::str::from_utf8(id).unwrap_or(""), p.x, p.y)
+            });
+        self.apply("tracked_objects", &msg.header, people, now);
+        self.hex_ids = ids;
+    }
+
+    fn apply<'a>(
+        &mut self,
+        input: &str,
+        header: &Header,
+        people: impl Iterator<Item = (&'a str, f64, f64)>,
+        now: Instant,
+    ) {
         self.stats.messages += 1;
         let warn = &mut self.warn;
         let keeper = &mut self.keeper;
-        let frame = msg.header.frame_id.as_str();
-        let stamp = msg.header.stamp.as_secs_f64();
+        let frame = header.frame_id.as_str();
+        let stamp = header.stamp.as_secs_f64();
         let mut skipped = [false; Skip::ALL.len()];
-        keeper.apply(
-            frame,
-            stamp,
-            msg.people
-                .iter()
-                .map(|p| (p.name.as_str(), p.position.x, p.position.y)),
-            now,
-            |k| skipped[k.index()] = true,
-        );
+        keeper.apply(frame, stamp, people, now, |k| skipped[k.index()] = true);
         for k in Skip::ALL {
             if skipped[k.index()]
                 && let Some(held) = warn[k.index()].check(now)
             {
                 tracing::warn!(
-                    "people input skipped: {} (frame '{frame}', stamp {stamp:.3}, map frame '{}'); {} so far, {held} warnings held back",
+                    "{input} input skipped: {} (frame '{frame}', stamp {stamp:.3}, map frame '{}'); {} so far, {held} warnings held back",
                     k.name(),
                     keeper.settings().frame_id,
                     keeper.count(k)
@@ -119,12 +154,12 @@ impl Engine {
         }
     }
 
-    /// Count a message that could not be decoded.
-    pub fn on_malformed(&mut self, error: &str, now: Instant) {
+    /// Count a message of `input` (a topic key) that could not be decoded.
+    pub fn on_malformed(&mut self, input: &str, error: &str, now: Instant) {
         self.keeper.count_skip(Skip::Malformed);
         if let Some(held) = self.warn[Skip::Malformed.index()].check(now) {
             tracing::warn!(
-                "people input skipped: malformed message ({error}); {} so far, {held} warnings held back",
+                "{input} input skipped: malformed message ({error}); {} so far, {held} warnings held back",
                 self.keeper.count(Skip::Malformed)
             );
         }

@@ -12,7 +12,7 @@ use ros2_client::{
 
 use crate::engine::Engine;
 use crate::markers::{self, MarkerStyle};
-use crate::msg::{self, MarkerArray, People, Predictions};
+use crate::msg::{self, MarkerArray, People, Predictions, TrackedObjects};
 use crate::predictor::Predictor;
 use crate::settings::Settings;
 use crate::tracks::Keeper;
@@ -105,6 +105,16 @@ pub fn run(settings: Settings, domain_id: u16) -> Result<()> {
     let mut people_sub = node
         .create_subscription::<People>(&people_topic, None)
         .map_err(|e| anyhow::anyhow!("subscribing {}: {e:?}", t["people"]))?;
+    let objects_topic = node
+        .create_topic(
+            &topic_name(&t["tracked_objects"])?,
+            type_name(msg::TRACKED_OBJECTS),
+            &input_qos,
+        )
+        .map_err(|e| anyhow::anyhow!("topic {}: {e:?}", t["tracked_objects"]))?;
+    let mut objects_sub = node
+        .create_subscription::<TrackedObjects>(&objects_topic, None)
+        .map_err(|e| anyhow::anyhow!("subscribing {}: {e:?}", t["tracked_objects"]))?;
     let pred_topic = node
         .create_topic(
             &topic_name(&t["predictions"])?,
@@ -151,11 +161,14 @@ pub fn run(settings: Settings, domain_id: u16) -> Result<()> {
     poll.registry()
         .register(&mut people_sub, Token(1), Interest::READABLE)
         .context("registering the people subscription")?;
+    poll.registry()
+        .register(&mut objects_sub, Token(2), Interest::READABLE)
+        .context("registering the tracked-objects subscription")?;
     let mut events = Events::with_capacity(16);
     let period = (p.rate > 0.0).then(|| Duration::from_secs_f64(1.0 / p.rate));
     let mut next = Instant::now() + period.unwrap_or(Duration::from_millis(100));
     tracing::info!(
-        "node {}{}{} on domain {domain_id}: {} -> {}, {}; predicting {} ({}), k {}, {} s at {} s, {}",
+        "node {}{}{} on domain {domain_id}: {}, {} -> {}, {}; predicting {} ({}), k {}, {} s at {} s, {}",
         settings.namespace,
         if settings.namespace.ends_with('/') {
             ""
@@ -164,6 +177,7 @@ pub fn run(settings: Settings, domain_id: u16) -> Result<()> {
         },
         settings.name,
         t["people"],
+        t["tracked_objects"],
         t["predictions"],
         t["markers"],
         engine.predictor().map_label(),
@@ -212,7 +226,20 @@ pub fn run(settings: Settings, domain_id: u16) -> Result<()> {
                     }
                 }
                 Ok(None) => break,
-                Err(e) => engine.on_malformed(&e.to_string(), Instant::now()),
+                Err(e) => engine.on_malformed("people", &e.to_string(), Instant::now()),
+            }
+        }
+        loop {
+            match objects_sub.take() {
+                Ok(Some((m, _info))) => {
+                    engine.on_tracked_objects(&m, Instant::now());
+                    got = true;
+                    if period.is_none() {
+                        publish(engine.cycle(Instant::now()));
+                    }
+                }
+                Ok(None) => break,
+                Err(e) => engine.on_malformed("tracked_objects", &e.to_string(), Instant::now()),
             }
         }
         let now = Instant::now();
