@@ -395,11 +395,20 @@ pub struct Twist {
     pub angular: Vector3,
 }
 
-/// `geometry_msgs/msg/TwistWithCovariance` (and `AccelWithCovariance`).
+/// `geometry_msgs/msg/TwistWithCovariance`.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
 pub struct TwistWithCovariance {
-    /// Twist (or acceleration).
+    /// Twist.
     pub twist: Twist,
+    /// Covariance.
+    pub covariance: Covariance,
+}
+
+/// `geometry_msgs/msg/AccelWithCovariance`.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+pub struct AccelWithCovariance {
+    /// Acceleration (`geometry_msgs/Accel`: linear and angular, as a twist).
+    pub accel: Twist,
     /// Covariance.
     pub covariance: Covariance,
 }
@@ -463,8 +472,8 @@ pub struct TrackedObjectKinematics {
     pub pose_with_covariance: PoseWithCovariance,
     /// Velocity.
     pub twist_with_covariance: TwistWithCovariance,
-    /// Acceleration (`geometry_msgs/AccelWithCovariance`: the same layout as a twist).
-    pub acceleration_with_covariance: TwistWithCovariance,
+    /// Acceleration.
+    pub acceleration_with_covariance: AccelWithCovariance,
     /// UNAVAILABLE 0, SIGN_UNKNOWN 1, AVAILABLE 2.
     pub orientation_availability: u8,
     /// Not moving.
@@ -523,6 +532,17 @@ pub struct TrackedObjects {
 
 /// The DDS type of [`TrackedObjects`].
 pub const TRACKED_OBJECTS: TypeName = ("autoware_perception_msgs", "TrackedObjects");
+
+/// A message shared with a publisher instead of copied: serializes as `T`. The engine
+/// keeps the `Arc` and reuses the message once the publisher has written it.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Shared<T>(pub std::sync::Arc<T>);
+
+impl<T: Serialize> Serialize for Shared<T> {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        self.0.serialize(s)
+    }
+}
 
 impl ros2_client::Message for People {}
 impl ros2_client::Message for TrackedObjects {}

@@ -12,7 +12,7 @@ use ros2_client::{
 
 use crate::engine::Engine;
 use crate::markers::{self, MarkerStyle};
-use crate::msg::{self, MarkerArray, People, Predictions, TrackedObjects};
+use crate::msg::{self, MarkerArray, People, Predictions, Shared, TrackedObjects};
 use crate::predictor::Predictor;
 use crate::settings::Settings;
 use crate::tracks::Keeper;
@@ -123,7 +123,7 @@ pub fn run(settings: Settings, domain_id: u16) -> Result<()> {
         )
         .map_err(|e| anyhow::anyhow!("topic {}: {e:?}", t["predictions"]))?;
     let pred_pub = node
-        .create_publisher::<Predictions>(&pred_topic, None)
+        .create_publisher::<Shared<Predictions>>(&pred_topic, None)
         .map_err(|e| anyhow::anyhow!("publisher {}: {e:?}", t["predictions"]))?;
     let marker_topic = node
         .create_topic(
@@ -133,7 +133,7 @@ pub fn run(settings: Settings, domain_id: u16) -> Result<()> {
         )
         .map_err(|e| anyhow::anyhow!("topic {}: {e:?}", t["markers"]))?;
     let marker_pub = node
-        .create_publisher::<MarkerArray>(&marker_topic, None)
+        .create_publisher::<Shared<MarkerArray>>(&marker_topic, None)
         .map_err(|e| anyhow::anyhow!("publisher {}: {e:?}", t["markers"]))?;
     let map_topic = node
         .create_topic(
@@ -195,14 +195,15 @@ pub fn run(settings: Settings, domain_id: u16) -> Result<()> {
         }
     );
 
-    let publish = |out: crate::engine::Output| {
-        if let Some(pr) = out.predictions
+    // handles, not copies: the engine reuses its messages once they are written
+    let publish = |out: &crate::engine::Output| {
+        if let Some(pr) = out.shared_predictions()
             && let Err(e) = pred_pub.publish(pr)
         {
             tracing::warn!("publishing predictions: {e:?}");
         }
-        if !out.markers.markers.is_empty()
-            && let Err(e) = marker_pub.publish(out.markers)
+        if !out.markers().markers.is_empty()
+            && let Err(e) = marker_pub.publish(out.shared_markers())
         {
             tracing::warn!("publishing markers: {e:?}");
         }
@@ -254,11 +255,8 @@ pub fn run(settings: Settings, domain_id: u16) -> Result<()> {
                 }
                 None => {
                     // on-input mode: still forget stale tracks (and delete their markers)
-                    if !got {
-                        let deletions = engine.expire(now);
-                        if !deletions.markers.is_empty() {
-                            let _ = marker_pub.publish(deletions);
-                        }
+                    if !got && !engine.expire(now).markers.is_empty() {
+                        let _ = marker_pub.publish(engine.output().shared_markers());
                     }
                     next = now + Duration::from_millis(100);
                 }
