@@ -108,6 +108,12 @@ scenario() {
   PUB=""; VERIFY=(); FRAMES_OF=""; RESTART=""
 }
 
+# golden CDR bytes and type hashes: rosbags and the official generator against the
+# committed files (cargo test's tests/golden.rs checks our structs against the same files)
+gout="$(python "$here/golden/make_golden.py" --check)"
+echo "$gout" | grep -v ' passed, .* failed$'
+passed=$((passed + $(echo "$gout" | grep -c '^ok '))); failed=$((failed + $(echo "$gout" | grep -c '^FAIL ')))
+
 common=(-p rate:=0.0 -p track_timeout:=1.8 -p warn_period:=2.0)
 
 # People from a reliable publisher, in-process; every track's markers deleted once stale
