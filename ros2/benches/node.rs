@@ -6,12 +6,15 @@
 //! * `histories`: applying it to the tracks (`Engine::on_people`; includes stepping the
 //!   reused message to its next stamp, 30 writes);
 //! * `prediction`: `Engine::predict` (the prediction itself, `LocalPredictor`);
-//! * `build`: the predictions message and 600 line strips (`Engine::build`);
-//! * `encode`: both messages to CDR bytes (what the publishers serialize).
+//! * `build_predictions`, `encode_predictions`: the predictions message
+//!   (`Engine::build_predictions`) and its CDR bytes (what its publisher serializes);
+//! * `build_markers`, `encode_markers`: the 600 line strips (`Engine::build_markers`)
+//!   and the MarkerArray's CDR bytes.
 //!
 //! Criterion measures each stage's mean per iteration; then `percentiles` times 300 single
 //! runs of each stage and prints p50 and p99 (criterion reports no per-call tails), and
-//! the node's share: decode + histories + build + encode.
+//! the node's share on the way to the predictions (decode + histories + build and encode
+//! of the predictions) and the markers' (their build and encode).
 //!
 //!     cargo bench -p cliff-ros2 --bench node
 
@@ -98,17 +101,26 @@ fn prediction(s: &mut Setup) -> bool {
     s.engine.predict(s.now)
 }
 
-fn build(s: &mut Setup) {
-    s.engine.clear_output();
-    s.engine.build();
+fn build_predictions(s: &mut Setup) {
+    s.engine.build_predictions();
 }
 
-fn encode(s: &mut Setup) -> usize {
-    let out = s.engine.output();
-    let p = CDRSerializerAdapter::<Predictions>::to_bytes(out.predictions().expect("predicted"))
-        .expect("serializes");
-    let m = CDRSerializerAdapter::<MarkerArray>::to_bytes(out.markers()).expect("serializes");
-    p.len() + m.len()
+fn encode_predictions(s: &mut Setup) -> usize {
+    let p = s.engine.output().predictions().expect("predicted");
+    CDRSerializerAdapter::<Predictions>::to_bytes(p)
+        .expect("serializes")
+        .len()
+}
+
+fn build_markers(s: &mut Setup) {
+    s.engine.clear_output();
+    s.engine.build_markers();
+}
+
+fn encode_markers(s: &mut Setup) -> usize {
+    CDRSerializerAdapter::<MarkerArray>::to_bytes(s.engine.output().markers())
+        .expect("serializes")
+        .len()
 }
 
 fn stages(c: &mut Criterion) {
@@ -118,8 +130,16 @@ fn stages(c: &mut Criterion) {
     g.bench_function("decode", |b| b.iter(|| black_box(decode(&mut s))));
     g.bench_function("histories", |b| b.iter(|| histories(&mut s)));
     g.bench_function("prediction", |b| b.iter(|| black_box(prediction(&mut s))));
-    g.bench_function("build", |b| b.iter(|| build(&mut s)));
-    g.bench_function("encode", |b| b.iter(|| black_box(encode(&mut s))));
+    g.bench_function("build_predictions", |b| {
+        b.iter(|| build_predictions(&mut s))
+    });
+    g.bench_function("encode_predictions", |b| {
+        b.iter(|| black_box(encode_predictions(&mut s)))
+    });
+    g.bench_function("build_markers", |b| b.iter(|| build_markers(&mut s)));
+    g.bench_function("encode_markers", |b| {
+        b.iter(|| black_box(encode_markers(&mut s)))
+    });
     g.finish();
 }
 
@@ -131,44 +151,62 @@ fn percentile(v: &mut [f64], q: f64) -> f64 {
 fn percentiles(_c: &mut Criterion) {
     let mut s = setup();
     const RUNS: usize = 300;
-    let mut times: Vec<Vec<f64>> = (0..5).map(|_| Vec::with_capacity(RUNS)).collect();
+    const STAGES: [&str; 7] = [
+        "decode",
+        "histories",
+        "prediction",
+        "build_predictions",
+        "encode_predictions",
+        "build_markers",
+        "encode_markers",
+    ];
+    let mut times: Vec<Vec<f64>> = (0..STAGES.len())
+        .map(|_| Vec::with_capacity(RUNS))
+        .collect();
     for _ in 0..RUNS {
-        let t = Instant::now();
+        let mut t = [Instant::now(); STAGES.len() + 1];
         black_box(decode(&mut s));
-        let t1 = Instant::now();
+        t[1] = Instant::now();
         histories(&mut s);
-        let t2 = Instant::now();
+        t[2] = Instant::now();
         black_box(prediction(&mut s));
-        let t3 = Instant::now();
-        build(&mut s);
-        let t4 = Instant::now();
-        black_box(encode(&mut s));
-        let t5 = Instant::now();
-        for (i, (a, b)) in [(t, t1), (t1, t2), (t2, t3), (t3, t4), (t4, t5)]
-            .into_iter()
-            .enumerate()
-        {
-            times[i].push((b - a).as_secs_f64() * 1e3);
+        t[3] = Instant::now();
+        build_predictions(&mut s);
+        t[4] = Instant::now();
+        black_box(encode_predictions(&mut s));
+        t[5] = Instant::now();
+        build_markers(&mut s);
+        t[6] = Instant::now();
+        black_box(encode_markers(&mut s));
+        t[7] = Instant::now();
+        for (i, v) in times.iter_mut().enumerate() {
+            v.push((t[i + 1] - t[i]).as_secs_f64() * 1e3);
         }
     }
-    let mut node: Vec<f64> = (0..RUNS)
-        .map(|r| times[0][r] + times[1][r] + times[3][r] + times[4][r])
-        .collect();
+    let sum = |stages: &[usize]| -> Vec<f64> {
+        (0..RUNS)
+            .map(|r| stages.iter().map(|&i| times[i][r]).sum())
+            .collect()
+    };
+    let mut to_predictions = sum(&[0, 1, 3, 4]);
+    let mut markers = sum(&[5, 6]);
     println!("ros2 node, 30 people, k 20, 12 s at 0.4 s: {RUNS} single runs per stage (ms)");
-    for (name, v) in ["decode", "histories", "prediction", "build", "encode"]
-        .iter()
-        .zip(times.iter_mut())
-    {
+    for (name, v) in STAGES.iter().zip(times.iter_mut()) {
         let p50 = percentile(v, 0.5);
         let p99 = percentile(v, 0.99);
-        println!("  {name:<12} p50 {p50:8.4}  p99 {p99:8.4}");
+        println!("  {name:<20} p50 {p50:8.4}  p99 {p99:8.4}");
     }
-    let p50 = percentile(&mut node, 0.5);
-    let p99 = percentile(&mut node, 0.99);
-    println!(
-        "  {:<12} p50 {p50:8.4}  p99 {p99:8.4}  (decode + histories + build + encode)",
-        "node adds"
-    );
+    for (name, v) in [
+        (
+            "node adds, to the predictions (decode, histories, build and encode predictions)",
+            &mut to_predictions,
+        ),
+        ("markers (build and encode)", &mut markers),
+    ] {
+        let p50 = percentile(v, 0.5);
+        let p99 = percentile(v, 0.99);
+        println!("  {name}: p50 {p50:.4}  p99 {p99:.4}");
+    }
 }
 
 criterion_group!(benches, stages, percentiles);

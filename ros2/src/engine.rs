@@ -301,20 +301,23 @@ impl Engine {
         }
     }
 
-    /// The building step of a cycle: the predictions message and the line strips from
-    /// the last [`Engine::predict`], appended to the reused output (after the deletions
-    /// of a cycle; [`Engine::clear_output`] empties it).
+    /// The building step of a cycle: [`Engine::build_predictions`] then
+    /// [`Engine::build_markers`].
     pub fn build(&mut self) {
+        self.build_predictions();
+        self.build_markers();
+    }
+
+    /// The predictions message from the last [`Engine::predict`], into the reused output
+    /// ([`Engine::clear_output`] empties it).
+    pub fn build_predictions(&mut self) {
         let Engine {
             keeper,
             predictor,
-            style,
             header,
             out,
-            spare_markers,
             spare_people,
             selected,
-            alphas,
             ..
         } = self;
         let samples = predictor.samples();
@@ -323,6 +326,7 @@ impl Engine {
         let seconds = keeper.settings().history_seconds;
         let tracks = keeper.tracks();
         let msg = Arc::make_mut(&mut out.predictions);
+        spare_people.append(&mut msg.people);
         msg.header.stamp = header.stamp;
         msg.header.frame_id.clone_from(&header.frame_id);
         msg.dt = p.dt;
@@ -333,36 +337,66 @@ impl Engine {
         msg.map.clear();
         msg.map.push_str(predictor.map_label());
         msg.seed = p.seed;
-        let markers = Arc::make_mut(&mut out.markers);
         for (a, &i) in selected.iter().enumerate() {
             let t = &tracks[i];
             let last = t.last().expect("selected tracks have observations");
-            let origin = [last.x as f32, last.y as f32];
             let mut person = spare_people.pop().unwrap_or_default();
             person.track_id.clone_from(&t.id);
             person.stamp = Time::from_secs_f64(last.t);
             person.history = t.window(seconds).len() as u32;
             person.origin = Point2 {
-                x: origin[0],
-                y: origin[1],
+                x: last.x as f32,
+                y: last.y as f32,
             };
             person.lengths.clear();
             person.points.clear();
             person.scores.clear();
-            let scored = !samples.scores.is_empty();
-            if scored {
+            if !samples.scores.is_empty() {
                 person
                     .scores
                     .extend((0..k).map(|s| samples.score(a, s).unwrap_or(f32::NAN)));
-                markers::score_alphas(&person.scores, alphas);
             }
-            let color = markers::track_color(t.number);
             for s in 0..k {
                 let pts = samples.sample(a, s);
                 person.lengths.push(pts.len() as u32);
                 person
                     .points
                     .extend(pts.iter().map(|q| Point2 { x: q[0], y: q[1] }));
+            }
+            msg.people.push(person);
+        }
+        out.predicted = true;
+    }
+
+    /// The line strips of the last [`Engine::predict`] (one per sample, shaded by score
+    /// when scored), appended to the output's markers after a cycle's deletions.
+    pub fn build_markers(&mut self) {
+        let Engine {
+            keeper,
+            predictor,
+            style,
+            header,
+            out,
+            spare_markers,
+            selected,
+            alphas,
+            ..
+        } = self;
+        let samples = predictor.samples();
+        let k = predictor.settings().params.k;
+        let tracks = keeper.tracks();
+        let markers = Arc::make_mut(&mut out.markers);
+        let scored = !samples.scores.is_empty();
+        for (a, &i) in selected.iter().enumerate() {
+            let t = &tracks[i];
+            let last = t.last().expect("selected tracks have observations");
+            let origin = [last.x as f32, last.y as f32];
+            if scored {
+                let scores = samples.scores.get(a * k..(a + 1) * k).unwrap_or(&[]);
+                markers::score_alphas(scores, alphas);
+            }
+            let color = markers::track_color(t.number);
+            for s in 0..k {
                 let mut c = color;
                 if scored && let Some(&a) = alphas.get(s) {
                     c.a = a;
@@ -374,14 +408,12 @@ impl Engine {
                     style,
                     markers::sample_id(t.number, k, s),
                     origin,
-                    pts,
+                    samples.sample(a, s),
                     c,
                 );
                 markers.markers.push(m);
             }
-            msg.people.push(person);
         }
-        out.predicted = true;
     }
 }
 
