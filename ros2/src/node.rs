@@ -1,5 +1,6 @@
-//! The ROS 2 side: a DDS participant (RustDDS through ros2-client), the people
-//! subscription, the three publishers, and the loop that drives the [`Engine`].
+//! The ROS 2 side: a DDS participant (RustDDS through ros2-client), the people and
+//! tracked-objects subscriptions, the three publishers, and the loop that drives the
+//! [`Engine`].
 
 use std::time::{Duration, Instant};
 
