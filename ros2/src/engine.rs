@@ -4,7 +4,12 @@
 use std::time::{Duration, Instant};
 
 use crate::markers::{self, MarkerStyle};
-use crate::msg::{Header, MarkerArray, People, PersonPrediction, Point2, Predictions, Time};
+use std::sync::Arc;
+
+use crate::msg::{
+    Header, Marker, MarkerArray, People, PersonPrediction, Point2, Predictions, Shared, Time,
+    TrackedObjects,
+};
 use crate::predictor::{PredictError, Predictor, method_name};
 use crate::tracks::{Keeper, Skip};
 use crate::warn::RateLimit;
@@ -22,13 +27,37 @@ pub struct Stats {
     pub refused: u64,
 }
 
-/// One cycle's output.
+/// One cycle's output. The engine owns it and reuses it from cycle to cycle (its
+/// strings and lists keep their capacity: a steady cycle allocates nothing); publishers
+/// get shared handles ([`Shared`]), not copies.
 #[derive(Debug, Default)]
 pub struct Output {
-    /// The predictions, when there was a prediction.
-    pub predictions: Option<Predictions>,
+    predictions: Arc<Predictions>,
+    predicted: bool,
+    markers: Arc<MarkerArray>,
+}
+
+impl Output {
+    /// The predictions, when this cycle predicted.
+    pub fn predictions(&self) -> Option<&Predictions> {
+        self.predicted.then_some(&*self.predictions)
+    }
+
     /// Line strips of the samples and deletions of ended tracks (may be empty).
-    pub markers: MarkerArray,
+    pub fn markers(&self) -> &MarkerArray {
+        &self.markers
+    }
+
+    /// The predictions to publish (a handle, not a copy), when this cycle predicted.
+    pub fn shared_predictions(&self) -> Option<Shared<Predictions>> {
+        self.predicted
+            .then(|| Shared(Arc::clone(&self.predictions)))
+    }
+
+    /// The markers to publish (a handle, not a copy).
+    pub fn shared_markers(&self) -> Shared<MarkerArray> {
+        Shared(Arc::clone(&self.markers))
+    }
 }
 
 /// People in, predictions out.
@@ -36,13 +65,17 @@ pub struct Engine {
     keeper: Keeper,
     predictor: Predictor,
     style: MarkerStyle,
-    frame: String,
     warn: Vec<RateLimit>,
     warn_predict: RateLimit,
     away: bool,
     selected: Vec<usize>,
     ended: Vec<u32>,
     alphas: Vec<f32>,
+    hex_ids: Vec<[u8; 32]>,
+    header: Header,
+    out: Output,
+    spare_markers: Vec<Marker>,
+    spare_people: Vec<PersonPrediction>,
     stats: Stats,
 }
 
@@ -57,18 +90,25 @@ impl Engine {
         style: MarkerStyle,
         warn_period: Duration,
     ) -> Self {
-        let frame = keeper.settings().frame_id.clone();
+        let header = Header {
+            stamp: Time::default(),
+            frame_id: keeper.settings().frame_id.clone(),
+        };
         Engine {
             keeper,
             predictor,
             style,
-            frame,
             warn: vec![RateLimit::new(warn_period); Skip::ALL.len()],
             warn_predict: RateLimit::new(warn_period),
             away: false,
             selected: Vec::new(),
             ended: Vec::new(),
             alphas: Vec::new(),
+            hex_ids: Vec::new(),
+            header,
+            out: Output::default(),
+            spare_markers: Vec::new(),
+            spare_people: Vec::new(),
             stats: Stats::default(),
         }
     }
@@ -83,34 +123,70 @@ impl Engine {
         &self.predictor
     }
 
+    /// The last cycle's output.
+    pub fn output(&self) -> &Output {
+        &self.out
+    }
+
     /// The counters.
     pub fn stats(&self) -> Stats {
         self.stats
     }
 
-    /// Apply a people message.
+    /// Apply a people message (`name` is the track id).
     pub fn on_people(&mut self, msg: &People, now: Instant) {
+        let people = msg
+            .people
+            .iter()
+            .map(|p| (p.name.as_str(), p.position.x, p.position.y));
+        self.apply("people", &msg.header, people, now);
+    }
+
+    /// Apply a tracked-objects message: its pedestrians (most probable label 7), the
+    /// uuid in hex as the track id; other objects are ignored.
+    pub fn on_tracked_objects(&mut self, msg: &TrackedObjects, now: Instant) {
+        let mut ids = std::mem::take(&mut self.hex_ids);
+        ids.clear();
+        ids.extend(
+            msg.objects
+                .iter()
+                .filter(|o| o.is_pedestrian())
+                .map(|o| o.object_id.hex()),
+        );
+        let people = msg
+            .objects
+            .iter()
+            .filter(|o| o.is_pedestrian())
+            .zip(&ids)
+            .map(|(o, id)| {
+                let p = o.kinematics.pose_with_covariance.pose.position;
+                // hex digits are ASCII
+                (std::str::from_utf8(id).unwrap_or(""), p.x, p.y)
+            });
+        self.apply("tracked_objects", &msg.header, people, now);
+        self.hex_ids = ids;
+    }
+
+    fn apply<'a>(
+        &mut self,
+        input: &str,
+        header: &Header,
+        people: impl Iterator<Item = (&'a str, f64, f64)>,
+        now: Instant,
+    ) {
         self.stats.messages += 1;
         let warn = &mut self.warn;
         let keeper = &mut self.keeper;
-        let frame = msg.header.frame_id.as_str();
-        let stamp = msg.header.stamp.as_secs_f64();
+        let frame = header.frame_id.as_str();
+        let stamp = header.stamp.as_secs_f64();
         let mut skipped = [false; Skip::ALL.len()];
-        keeper.apply(
-            frame,
-            stamp,
-            msg.people
-                .iter()
-                .map(|p| (p.name.as_str(), p.position.x, p.position.y)),
-            now,
-            |k| skipped[k.index()] = true,
-        );
+        keeper.apply(frame, stamp, people, now, |k| skipped[k.index()] = true);
         for k in Skip::ALL {
             if skipped[k.index()]
                 && let Some(held) = warn[k.index()].check(now)
             {
                 tracing::warn!(
-                    "people input skipped: {} (frame '{frame}', stamp {stamp:.3}, map frame '{}'); {} so far, {held} warnings held back",
+                    "{input} input skipped: {} (frame '{frame}', stamp {stamp:.3}, map frame '{}'); {} so far, {held} warnings held back",
                     k.name(),
                     keeper.settings().frame_id,
                     keeper.count(k)
@@ -119,56 +195,71 @@ impl Engine {
         }
     }
 
-    /// Count a message that could not be decoded.
-    pub fn on_malformed(&mut self, error: &str, now: Instant) {
+    /// Count a message of `input` (a topic key) that could not be decoded.
+    pub fn on_malformed(&mut self, input: &str, error: &str, now: Instant) {
         self.keeper.count_skip(Skip::Malformed);
         if let Some(held) = self.warn[Skip::Malformed.index()].check(now) {
             tracing::warn!(
-                "people input skipped: malformed message ({error}); {} so far, {held} warnings held back",
+                "{input} input skipped: malformed message ({error}); {} so far, {held} warnings held back",
                 self.keeper.count(Skip::Malformed)
             );
         }
     }
 
-    fn header(&self) -> Header {
+    /// The newest input stamp (0 before any) in the map frame.
+    fn refresh_header(&mut self) {
         let newest = self.keeper.newest();
-        Header {
-            stamp: Time::from_secs_f64(if newest.is_finite() { newest } else { 0.0 }),
-            frame_id: self.frame.clone(),
-        }
+        self.header.stamp = Time::from_secs_f64(if newest.is_finite() { newest } else { 0.0 });
+    }
+
+    /// Empty the output, taking its messages back into the spare pools (a cycle starts
+    /// with this; no allocation).
+    pub fn clear_output(&mut self) {
+        let markers = Arc::make_mut(&mut self.out.markers);
+        self.spare_markers.append(&mut markers.markers);
+        let predictions = Arc::make_mut(&mut self.out.predictions);
+        self.spare_people.append(&mut predictions.people);
+        self.out.predicted = false;
     }
 
     /// Forget stale tracks and delete their markers (no prediction): what an idle
-    /// on-input node does between messages.
-    pub fn expire(&mut self, now: Instant) -> MarkerArray {
-        let mut out = MarkerArray::default();
-        self.expire_into(now, &mut out);
-        out
+    /// on-input node does between messages. Empty when nothing ended.
+    pub fn expire(&mut self, now: Instant) -> &MarkerArray {
+        self.clear_output();
+        self.expire_into_markers(now);
+        &self.out.markers
     }
 
-    fn expire_into(&mut self, now: Instant, out: &mut MarkerArray) {
+    fn expire_into_markers(&mut self, now: Instant) {
         self.keeper.expire(now);
         self.keeper.take_ended(&mut self.ended);
-        let header = self.header();
+        self.refresh_header();
         let k = self.predictor.settings().params.k;
+        let markers = Arc::make_mut(&mut self.out.markers);
         for &n in &self.ended {
             for s in 0..k {
-                out.markers
-                    .push(markers::delete(&header, markers::sample_id(n, k, s)));
+                let mut m = self.spare_markers.pop().unwrap_or_default();
+                markers::fill_delete(&mut m, &self.header, markers::sample_id(n, k, s));
+                markers.markers.push(m);
             }
         }
     }
 
-    /// One cycle: forget stale tracks, predict the others, build the messages.
-    pub fn cycle(&mut self, now: Instant) -> Output {
-        let mut out = Output::default();
-        self.expire_into(now, &mut out.markers);
-        let newest = self.keeper.newest();
-        let header = self.header();
-        let k = self.predictor.settings().params.k;
-        if !newest.is_finite() {
-            return out;
+    /// One cycle: forget stale tracks, predict the others ([`Engine::predict`]), build
+    /// the messages ([`Engine::build`]).
+    pub fn cycle(&mut self, now: Instant) -> &Output {
+        self.clear_output();
+        self.expire_into_markers(now);
+        if self.keeper.newest().is_finite() && self.predict(now) {
+            self.build();
         }
+        &self.out
+    }
+
+    /// The prediction step of a cycle: predict every track with enough history. False
+    /// (and a rate-limited warning) when there is no prediction.
+    pub fn predict(&mut self, now: Instant) -> bool {
+        let newest = self.keeper.newest();
         let seconds = self.keeper.settings().history_seconds;
         self.selected.clear();
         for (i, t) in self.keeper.tracks().iter().enumerate() {
@@ -176,8 +267,6 @@ impl Engine {
                 self.selected.push(i);
             }
         }
-        let p = self.predictor.settings().params;
-        let map = self.predictor.map_label().to_string();
         let tracks = self.keeper.tracks();
         let selected = &self.selected;
         let result = self.predictor.predict(
@@ -186,14 +275,15 @@ impl Engine {
                 .map(|&i| tracks[i].window(seconds).map(|o| (o.t, o.x, o.y))),
             newest,
         );
-        let samples = match result {
-            Ok(s) => {
+        match result {
+            Ok(_) => {
                 if self.away {
                     tracing::info!("predictions are back");
                     self.away = false;
                     self.warn_predict.reset();
                 }
-                s
+                self.stats.predicted += 1;
+                true
             }
             Err(e) => {
                 match e {
@@ -206,67 +296,124 @@ impl Engine {
                 if let Some(held) = self.warn_predict.check(now) {
                     tracing::warn!("no prediction this cycle: {e} ({held} warnings held back)");
                 }
-                return out;
+                false
             }
-        };
-        self.stats.predicted += 1;
-        let mut msg = Predictions {
-            header: header.clone(),
-            dt: p.dt,
-            horizon: p.horizon,
-            k: p.k as u32,
-            method: method_name(p.method).to_string(),
-            map,
-            seed: p.seed,
-            people: Vec::with_capacity(selected.len()),
-        };
+        }
+    }
+
+    /// The building step of a cycle: [`Engine::build_predictions`] then
+    /// [`Engine::build_markers`].
+    pub fn build(&mut self) {
+        self.build_predictions();
+        self.build_markers();
+    }
+
+    /// The predictions message from the last [`Engine::predict`], into the reused output
+    /// ([`Engine::clear_output`] empties it).
+    pub fn build_predictions(&mut self) {
+        let Engine {
+            keeper,
+            predictor,
+            header,
+            out,
+            spare_people,
+            selected,
+            ..
+        } = self;
+        let samples = predictor.samples();
+        let p = predictor.settings().params;
+        let k = p.k;
+        let seconds = keeper.settings().history_seconds;
+        let tracks = keeper.tracks();
+        let msg = Arc::make_mut(&mut out.predictions);
+        spare_people.append(&mut msg.people);
+        msg.header.stamp = header.stamp;
+        msg.header.frame_id.clone_from(&header.frame_id);
+        msg.dt = p.dt;
+        msg.horizon = p.horizon;
+        msg.k = k as u32;
+        msg.method.clear();
+        msg.method.push_str(method_name(p.method));
+        msg.map.clear();
+        msg.map.push_str(predictor.map_label());
+        msg.seed = p.seed;
         for (a, &i) in selected.iter().enumerate() {
             let t = &tracks[i];
             let last = t.last().expect("selected tracks have observations");
-            let origin = [last.x as f32, last.y as f32];
-            let mut person = PersonPrediction {
-                track_id: t.id.clone(),
-                stamp: Time::from_secs_f64(last.t),
-                history: t.window(seconds).len() as u32,
-                origin: Point2 {
-                    x: origin[0],
-                    y: origin[1],
-                },
-                lengths: Vec::with_capacity(k),
-                points: Vec::with_capacity(k * samples.steps),
-                scores: Vec::new(),
+            let mut person = spare_people.pop().unwrap_or_default();
+            person.track_id.clone_from(&t.id);
+            person.stamp = Time::from_secs_f64(last.t);
+            person.history = t.window(seconds).len() as u32;
+            person.origin = Point2 {
+                x: last.x as f32,
+                y: last.y as f32,
             };
-            let scored = !samples.scores.is_empty();
-            if scored {
+            person.lengths.clear();
+            person.points.clear();
+            person.scores.clear();
+            if !samples.scores.is_empty() {
                 person
                     .scores
                     .extend((0..k).map(|s| samples.score(a, s).unwrap_or(f32::NAN)));
-                markers::score_alphas(&person.scores, &mut self.alphas);
             }
-            let color = markers::track_color(t.number);
             for s in 0..k {
                 let pts = samples.sample(a, s);
                 person.lengths.push(pts.len() as u32);
                 person
                     .points
                     .extend(pts.iter().map(|q| Point2 { x: q[0], y: q[1] }));
-                let mut c = color;
-                if scored {
-                    c.a = self.alphas[s];
-                }
-                out.markers.markers.push(markers::line_strip(
-                    &header,
-                    &self.style,
-                    markers::sample_id(t.number, k, s),
-                    origin,
-                    pts,
-                    c,
-                ));
             }
             msg.people.push(person);
         }
-        out.predictions = Some(msg);
-        out
+        out.predicted = true;
+    }
+
+    /// The line strips of the last [`Engine::predict`] (one per sample, shaded by score
+    /// when scored), appended to the output's markers after a cycle's deletions.
+    pub fn build_markers(&mut self) {
+        let Engine {
+            keeper,
+            predictor,
+            style,
+            header,
+            out,
+            spare_markers,
+            selected,
+            alphas,
+            ..
+        } = self;
+        let samples = predictor.samples();
+        let k = predictor.settings().params.k;
+        let tracks = keeper.tracks();
+        let markers = Arc::make_mut(&mut out.markers);
+        let scored = !samples.scores.is_empty();
+        for (a, &i) in selected.iter().enumerate() {
+            let t = &tracks[i];
+            let last = t.last().expect("selected tracks have observations");
+            let origin = [last.x as f32, last.y as f32];
+            if scored {
+                let scores = samples.scores.get(a * k..(a + 1) * k).unwrap_or(&[]);
+                markers::score_alphas(scores, alphas);
+            }
+            let color = markers::track_color(t.number);
+            for s in 0..k {
+                let mut c = color;
+                if scored && let Some(&a) = alphas.get(s) {
+                    c.a = a;
+                }
+                let mut m = spare_markers.pop().unwrap_or_default();
+                markers::fill_line_strip(
+                    &mut m,
+                    header,
+                    style,
+                    markers::sample_id(t.number, k, s),
+                    origin,
+                    samples.sample(a, s),
+                    c,
+                );
+                markers.markers.push(m);
+            }
+        }
     }
 }
 
@@ -317,14 +464,14 @@ mod tests {
     fn two_observations_make_a_prediction_with_markers() {
         let mut e = engine(true);
         let now = Instant::now();
-        assert!(e.cycle(now).predictions.is_none());
+        assert!(e.cycle(now).predictions().is_none());
         e.on_people(&people(0.0, &[("a", -10.0, 0.5), ("b", 0.0, 0.0)]), now);
         // one observation each: nothing to predict from yet, but a (empty) message
         let o = e.cycle(now);
-        assert_eq!(o.predictions.unwrap().people.len(), 0);
+        assert_eq!(o.predictions().unwrap().people.len(), 0);
         e.on_people(&people(0.4, &[("a", -9.5, 0.5)]), now);
         let o = e.cycle(now);
-        let p = o.predictions.unwrap();
+        let p = o.predictions().unwrap();
         assert_eq!(
             (p.people.len(), p.k, p.method.as_str(), p.map.as_str()),
             (1, 4, "cliff", "demo")
@@ -342,12 +489,12 @@ mod tests {
         assert_eq!(a.points.len() as u32, a.lengths.iter().sum::<u32>());
         assert_eq!(a.origin, Point2 { x: -9.5, y: 0.5 });
         assert_eq!(p.header.stamp, Time::from_secs_f64(0.4));
-        assert_eq!(o.markers.markers.len(), 4);
+        assert_eq!(o.markers().markers.len(), 4);
         // ended tracks get their markers deleted
         e.on_people(&people(3.0, &[("b", 0.1, 0.0)]), now);
         let o = e.cycle(now);
         let deletes = o
-            .markers
+            .markers()
             .markers
             .iter()
             .filter(|m| m.action == crate::msg::Marker::DELETE)
@@ -373,7 +520,7 @@ mod tests {
                     now,
                 );
             }
-            e.cycle(now).predictions.unwrap()
+            e.cycle(now).predictions().unwrap().clone()
         };
         let (x, y) = (run(), run());
         assert_eq!(x, y);

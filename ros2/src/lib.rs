@@ -1,6 +1,7 @@
 //! # cliff-ros2: a ROS 2 node for CLiFF-LHMP predictions
 //!
-//! People in (`people_msgs/msg/People`), sampled trajectories out (`cliff_msgs/msg/Predictions`,
+//! Tracked people in (`people_msgs/msg/People`, or the pedestrians of Autoware's
+//! `autoware_perception_msgs/msg/TrackedObjects`), sampled trajectories out (`cliff_msgs/msg/Predictions`,
 //! `visualization_msgs/msg/MarkerArray`), speaking DDS to stock ROS 2 through
 //! ros2-client over RustDDS: no ROS installation is needed to build or run it.
 //! Predictions come from a running `cliffd` or, with a map file, in-process; the same

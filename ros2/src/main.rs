@@ -113,6 +113,11 @@ fn after_help() -> String {
             "input: name = track id, header stamp and frame",
         ),
         (
+            "tracked_objects",
+            "autoware_perception_msgs/msg/TrackedObjects",
+            "input: pedestrians (most probable label 7), uuid = track id",
+        ),
+        (
             "predictions",
             "cliff_msgs/msg/Predictions",
             "output: k samples per person",
@@ -129,7 +134,7 @@ fn after_help() -> String {
         ),
     ];
     for ((_, topic), (_, ty, use_)) in TOPICS.iter().zip(types) {
-        s.push_str(&format!("  {topic:<18} {ty:<36} {use_}\n"));
+        s.push_str(&format!("  {topic:<18} {ty:<44} {use_}\n"));
     }
     s.push_str(
         "\nROS 2 launch arguments work too: --ros-args -r __node:=NAME -r __ns:=/NS --params-file FILE -p k:=10.\n\

@@ -78,33 +78,52 @@ fn duration(s: f64) -> Duration {
     }
 }
 
-/// A line strip of one sample: the origin, then the points.
-#[allow(clippy::too_many_arguments)]
-pub fn line_strip(
+/// Reset `m` to a default marker of the predictions in `header`, keeping the capacity
+/// of its strings and lists (a reused marker allocates nothing once warmed up).
+fn reset(m: &mut Marker, header: &Header) {
+    m.header.stamp = header.stamp;
+    m.header.frame_id.clone_from(&header.frame_id);
+    m.ns.clear();
+    m.ns.push_str(NS_PREDICTIONS);
+    m.id = 0;
+    m.type_ = Marker::ARROW;
+    m.action = Marker::ADD;
+    m.pose = Pose::default();
+    m.scale = Vector3::default();
+    m.color = ColorRGBA::default();
+    m.lifetime = Duration::default();
+    m.frame_locked = false;
+    m.points.clear();
+    m.colors.clear();
+    m.texture_resource.clear();
+    m.texture.header.stamp = Default::default();
+    m.texture.header.frame_id.clear();
+    m.texture.format.clear();
+    m.texture.data.clear();
+    m.uv_coordinates.clear();
+    m.text.clear();
+    m.mesh_resource.clear();
+    m.mesh_file.filename.clear();
+    m.mesh_file.data.clear();
+    m.mesh_use_embedded_materials = false;
+}
+
+/// Make `m` the line strip of one sample: the origin, then the points.
+pub fn fill_line_strip(
+    m: &mut Marker,
     header: &Header,
     style: &MarkerStyle,
     id: i32,
     origin: [f32; 2],
     points: &[[f32; 2]],
     color: ColorRGBA,
-) -> Marker {
-    let mut m = Marker {
-        header: header.clone(),
-        ns: NS_PREDICTIONS.to_string(),
-        id,
-        type_: Marker::LINE_STRIP,
-        action: Marker::ADD,
-        pose: Pose::default(),
-        scale: Vector3 {
-            x: style.width,
-            y: 0.0,
-            z: 0.0,
-        },
-        color,
-        lifetime: duration(style.lifetime),
-        ..Marker::default()
-    };
-    m.points.reserve(points.len() + 1);
+) {
+    reset(m, header);
+    m.id = id;
+    m.type_ = Marker::LINE_STRIP;
+    m.scale.x = style.width;
+    m.color = color;
+    m.lifetime = duration(style.lifetime);
     let p = |q: [f32; 2]| Point {
         x: q[0] as f64,
         y: q[1] as f64,
@@ -116,18 +135,34 @@ pub fn line_strip(
         // RViz wants two points for a line
         m.points.push(p(origin));
     }
+}
+
+/// A line strip of one sample: the origin, then the points.
+pub fn line_strip(
+    header: &Header,
+    style: &MarkerStyle,
+    id: i32,
+    origin: [f32; 2],
+    points: &[[f32; 2]],
+    color: ColorRGBA,
+) -> Marker {
+    let mut m = Marker::default();
+    fill_line_strip(&mut m, header, style, id, origin, points, color);
     m
+}
+
+/// Make `m` the deletion of marker `id` of the predictions.
+pub fn fill_delete(m: &mut Marker, header: &Header, id: i32) {
+    reset(m, header);
+    m.id = id;
+    m.action = Marker::DELETE;
 }
 
 /// A deletion of marker `id` of the predictions.
 pub fn delete(header: &Header, id: i32) -> Marker {
-    Marker {
-        header: header.clone(),
-        ns: NS_PREDICTIONS.to_string(),
-        id,
-        action: Marker::DELETE,
-        ..Marker::default()
-    }
+    let mut m = Marker::default();
+    fill_delete(&mut m, header, id);
+    m
 }
 
 /// The map as arrows: one per component, from its location along its mean direction,
@@ -244,6 +279,25 @@ mod tests {
             (3, 1.0, 2.0)
         );
         assert_eq!(m.type_, Marker::LINE_STRIP);
+    }
+
+    #[test]
+    fn a_reused_marker_is_the_same_as_a_new_one() {
+        let h = Header {
+            frame_id: "map".into(),
+            ..Header::default()
+        };
+        let style = MarkerStyle::default();
+        let mut m = line_strip(&h, &style, 3, [1.0, 2.0], &[[1.5, 2.0]], track_color(1));
+        m.text.push_str("left over");
+        m.colors.push(ColorRGBA::default());
+        fill_delete(&mut m, &h, 9);
+        assert_eq!(m, delete(&h, 9));
+        fill_line_strip(&mut m, &h, &style, 4, [0.0, 0.0], &[], track_color(2));
+        assert_eq!(
+            m,
+            line_strip(&h, &style, 4, [0.0, 0.0], &[], track_color(2))
+        );
     }
 
     #[test]

@@ -331,7 +331,221 @@ pub struct Predictions {
 /// The DDS type of [`Predictions`].
 pub const PREDICTIONS: TypeName = ("cliff_msgs", "Predictions");
 
+/// A row-major 6×6 covariance (`float64[36]`: a CDR fixed array, no length).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Covariance(pub [f64; 36]);
+
+impl Default for Covariance {
+    fn default() -> Self {
+        Covariance([0.0; 36])
+    }
+}
+
+impl Serialize for Covariance {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        use serde::ser::SerializeTuple;
+        let mut t = s.serialize_tuple(36)?;
+        for v in &self.0 {
+            t.serialize_element(v)?;
+        }
+        t.end()
+    }
+}
+
+impl<'de> Deserialize<'de> for Covariance {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct V;
+        impl<'de> serde::de::Visitor<'de> for V {
+            type Value = Covariance;
+            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                f.write_str("36 float64 values")
+            }
+            fn visit_seq<A: serde::de::SeqAccess<'de>>(
+                self,
+                mut a: A,
+            ) -> Result<Covariance, A::Error> {
+                let mut c = [0.0; 36];
+                for (i, v) in c.iter_mut().enumerate() {
+                    *v = a
+                        .next_element()?
+                        .ok_or_else(|| serde::de::Error::invalid_length(i, &self))?;
+                }
+                Ok(Covariance(c))
+            }
+        }
+        d.deserialize_tuple(36, V)
+    }
+}
+
+/// `geometry_msgs/msg/PoseWithCovariance`.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+pub struct PoseWithCovariance {
+    /// Pose.
+    pub pose: Pose,
+    /// Covariance of (x, y, z, rot x, rot y, rot z).
+    pub covariance: Covariance,
+}
+
+/// `geometry_msgs/msg/Twist` (and `Accel`: the same fields).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+pub struct Twist {
+    /// Linear part.
+    pub linear: Vector3,
+    /// Angular part.
+    pub angular: Vector3,
+}
+
+/// `geometry_msgs/msg/TwistWithCovariance`.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+pub struct TwistWithCovariance {
+    /// Twist.
+    pub twist: Twist,
+    /// Covariance.
+    pub covariance: Covariance,
+}
+
+/// `geometry_msgs/msg/AccelWithCovariance`.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+pub struct AccelWithCovariance {
+    /// Acceleration (`geometry_msgs/Accel`: linear and angular, as a twist).
+    pub accel: Twist,
+    /// Covariance.
+    pub covariance: Covariance,
+}
+
+/// `geometry_msgs/msg/Point32`.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+pub struct Point32 {
+    /// x.
+    pub x: f32,
+    /// y.
+    pub y: f32,
+    /// z.
+    pub z: f32,
+}
+
+/// `geometry_msgs/msg/Polygon`.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct Polygon {
+    /// Corners.
+    pub points: Vec<Point32>,
+}
+
+/// `unique_identifier_msgs/msg/UUID`.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Uuid {
+    /// The 16 bytes (a CDR fixed array).
+    pub uuid: [u8; 16],
+}
+
+impl Uuid {
+    /// The 16 bytes as 32 lowercase hex digits, in array order (the track id).
+    pub fn hex(&self) -> [u8; 32] {
+        const DIGITS: &[u8; 16] = b"0123456789abcdef";
+        let mut out = [0u8; 32];
+        for (i, b) in self.uuid.iter().enumerate() {
+            out[2 * i] = DIGITS[(b >> 4) as usize];
+            out[2 * i + 1] = DIGITS[(b & 15) as usize];
+        }
+        out
+    }
+}
+
+/// `autoware_perception_msgs/msg/ObjectClassification` (autoware_msgs 1.12.0).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+pub struct ObjectClassification {
+    /// Class label ([`ObjectClassification::PEDESTRIAN`], ...).
+    pub label: u8,
+    /// Probability of the label, 0..1.
+    pub probability: f32,
+}
+
+impl ObjectClassification {
+    /// The pedestrian label.
+    pub const PEDESTRIAN: u8 = 7;
+}
+
+/// `autoware_perception_msgs/msg/TrackedObjectKinematics`.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+pub struct TrackedObjectKinematics {
+    /// Pose (the position is used).
+    pub pose_with_covariance: PoseWithCovariance,
+    /// Velocity.
+    pub twist_with_covariance: TwistWithCovariance,
+    /// Acceleration.
+    pub acceleration_with_covariance: AccelWithCovariance,
+    /// UNAVAILABLE 0, SIGN_UNKNOWN 1, AVAILABLE 2.
+    pub orientation_availability: u8,
+    /// Not moving.
+    pub is_stationary: bool,
+}
+
+/// `autoware_perception_msgs/msg/Shape`.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct Shape {
+    /// BOUNDING_BOX 0, CYLINDER 1, POLYGON 2.
+    #[serde(rename = "type")]
+    pub type_: u8,
+    /// Footprint (polygons).
+    pub footprint: Polygon,
+    /// Dimensions (m).
+    pub dimensions: Vector3,
+}
+
+/// `autoware_perception_msgs/msg/TrackedObject`.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct TrackedObject {
+    /// The tracker's id: our track id is its hex form ([`Uuid::hex`]).
+    pub object_id: Uuid,
+    /// Existence probability.
+    pub existence_probability: f32,
+    /// Class probabilities: a pedestrian when the most probable label is 7.
+    pub classification: Vec<ObjectClassification>,
+    /// Pose, twist, acceleration.
+    pub kinematics: TrackedObjectKinematics,
+    /// Shape.
+    pub shape: Shape,
+}
+
+impl TrackedObject {
+    /// The most probable label is [`ObjectClassification::PEDESTRIAN`] (the first of
+    /// equally probable entries counts; no entry: not a pedestrian).
+    pub fn is_pedestrian(&self) -> bool {
+        let mut best: Option<&ObjectClassification> = None;
+        for c in &self.classification {
+            if best.is_none_or(|b| c.probability > b.probability) {
+                best = Some(c);
+            }
+        }
+        best.is_some_and(|c| c.label == ObjectClassification::PEDESTRIAN)
+    }
+}
+
+/// `autoware_perception_msgs/msg/TrackedObjects`: Autoware's tracker output.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct TrackedObjects {
+    /// Stamp and frame of every object.
+    pub header: Header,
+    /// The objects (pedestrians and others).
+    pub objects: Vec<TrackedObject>,
+}
+
+/// The DDS type of [`TrackedObjects`].
+pub const TRACKED_OBJECTS: TypeName = ("autoware_perception_msgs", "TrackedObjects");
+
+/// A message shared with a publisher instead of copied: serializes as `T`. The engine
+/// keeps the `Arc` and reuses the message once the publisher has written it.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Shared<T>(pub std::sync::Arc<T>);
+
+impl<T: Serialize> Serialize for Shared<T> {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        self.0.serialize(s)
+    }
+}
+
 impl ros2_client::Message for People {}
+impl ros2_client::Message for TrackedObjects {}
 impl ros2_client::Message for MarkerArray {}
 impl ros2_client::Message for Predictions {}
 
@@ -352,6 +566,30 @@ mod tests {
         );
         assert_eq!(Time::from_secs_f64(f64::NAN), Time::default());
         assert_eq!(Time::from_secs_f64(1e300).sec, i32::MAX);
+    }
+
+    #[test]
+    fn uuid_hex_is_the_bytes_in_order() {
+        let mut u = Uuid::default();
+        for (i, b) in u.uuid.iter_mut().enumerate() {
+            *b = (i as u8) * 17;
+        }
+        assert_eq!(&u.hex(), b"00112233445566778899aabbccddeeff");
+    }
+
+    #[test]
+    fn pedestrian_is_the_most_probable_label() {
+        let c = |label, probability| ObjectClassification { label, probability };
+        let o = |cs: Vec<ObjectClassification>| TrackedObject {
+            classification: cs,
+            ..TrackedObject::default()
+        };
+        assert!(o(vec![c(7, 0.9)]).is_pedestrian());
+        assert!(o(vec![c(1, 0.2), c(7, 0.7), c(6, 0.1)]).is_pedestrian());
+        assert!(!o(vec![c(7, 0.3), c(6, 0.7)]).is_pedestrian());
+        assert!(o(vec![c(7, 0.5), c(6, 0.5)]).is_pedestrian());
+        assert!(!o(vec![c(6, 0.5), c(7, 0.5)]).is_pedestrian());
+        assert!(!o(vec![]).is_pedestrian());
     }
 
     #[test]

@@ -1,5 +1,6 @@
-//! The ROS 2 side: a DDS participant (RustDDS through ros2-client), the people
-//! subscription, the three publishers, and the loop that drives the [`Engine`].
+//! The ROS 2 side: a DDS participant (RustDDS through ros2-client), the people and
+//! tracked-objects subscriptions, the three publishers, and the loop that drives the
+//! [`Engine`].
 
 use std::time::{Duration, Instant};
 
@@ -12,7 +13,7 @@ use ros2_client::{
 
 use crate::engine::Engine;
 use crate::markers::{self, MarkerStyle};
-use crate::msg::{self, MarkerArray, People, Predictions};
+use crate::msg::{self, MarkerArray, People, Predictions, Shared, TrackedObjects};
 use crate::predictor::Predictor;
 use crate::settings::Settings;
 use crate::tracks::Keeper;
@@ -105,6 +106,16 @@ pub fn run(settings: Settings, domain_id: u16) -> Result<()> {
     let mut people_sub = node
         .create_subscription::<People>(&people_topic, None)
         .map_err(|e| anyhow::anyhow!("subscribing {}: {e:?}", t["people"]))?;
+    let objects_topic = node
+        .create_topic(
+            &topic_name(&t["tracked_objects"])?,
+            type_name(msg::TRACKED_OBJECTS),
+            &input_qos,
+        )
+        .map_err(|e| anyhow::anyhow!("topic {}: {e:?}", t["tracked_objects"]))?;
+    let mut objects_sub = node
+        .create_subscription::<TrackedObjects>(&objects_topic, None)
+        .map_err(|e| anyhow::anyhow!("subscribing {}: {e:?}", t["tracked_objects"]))?;
     let pred_topic = node
         .create_topic(
             &topic_name(&t["predictions"])?,
@@ -113,7 +124,7 @@ pub fn run(settings: Settings, domain_id: u16) -> Result<()> {
         )
         .map_err(|e| anyhow::anyhow!("topic {}: {e:?}", t["predictions"]))?;
     let pred_pub = node
-        .create_publisher::<Predictions>(&pred_topic, None)
+        .create_publisher::<Shared<Predictions>>(&pred_topic, None)
         .map_err(|e| anyhow::anyhow!("publisher {}: {e:?}", t["predictions"]))?;
     let marker_topic = node
         .create_topic(
@@ -123,7 +134,7 @@ pub fn run(settings: Settings, domain_id: u16) -> Result<()> {
         )
         .map_err(|e| anyhow::anyhow!("topic {}: {e:?}", t["markers"]))?;
     let marker_pub = node
-        .create_publisher::<MarkerArray>(&marker_topic, None)
+        .create_publisher::<Shared<MarkerArray>>(&marker_topic, None)
         .map_err(|e| anyhow::anyhow!("publisher {}: {e:?}", t["markers"]))?;
     let map_topic = node
         .create_topic(
@@ -151,11 +162,14 @@ pub fn run(settings: Settings, domain_id: u16) -> Result<()> {
     poll.registry()
         .register(&mut people_sub, Token(1), Interest::READABLE)
         .context("registering the people subscription")?;
+    poll.registry()
+        .register(&mut objects_sub, Token(2), Interest::READABLE)
+        .context("registering the tracked-objects subscription")?;
     let mut events = Events::with_capacity(16);
     let period = (p.rate > 0.0).then(|| Duration::from_secs_f64(1.0 / p.rate));
     let mut next = Instant::now() + period.unwrap_or(Duration::from_millis(100));
     tracing::info!(
-        "node {}{}{} on domain {domain_id}: {} -> {}, {}; predicting {} ({}), k {}, {} s at {} s, {}",
+        "node {}{}{} on domain {domain_id}: {}, {} -> {}, {}; predicting {} ({}), k {}, {} s at {} s, {}",
         settings.namespace,
         if settings.namespace.ends_with('/') {
             ""
@@ -164,6 +178,7 @@ pub fn run(settings: Settings, domain_id: u16) -> Result<()> {
         },
         settings.name,
         t["people"],
+        t["tracked_objects"],
         t["predictions"],
         t["markers"],
         engine.predictor().map_label(),
@@ -181,14 +196,15 @@ pub fn run(settings: Settings, domain_id: u16) -> Result<()> {
         }
     );
 
-    let publish = |out: crate::engine::Output| {
-        if let Some(pr) = out.predictions
+    // handles, not copies: the engine reuses its messages once they are written
+    let publish = |out: &crate::engine::Output| {
+        if let Some(pr) = out.shared_predictions()
             && let Err(e) = pred_pub.publish(pr)
         {
             tracing::warn!("publishing predictions: {e:?}");
         }
-        if !out.markers.markers.is_empty()
-            && let Err(e) = marker_pub.publish(out.markers)
+        if !out.markers().markers.is_empty()
+            && let Err(e) = marker_pub.publish(out.shared_markers())
         {
             tracing::warn!("publishing markers: {e:?}");
         }
@@ -212,7 +228,20 @@ pub fn run(settings: Settings, domain_id: u16) -> Result<()> {
                     }
                 }
                 Ok(None) => break,
-                Err(e) => engine.on_malformed(&e.to_string(), Instant::now()),
+                Err(e) => engine.on_malformed("people", &e.to_string(), Instant::now()),
+            }
+        }
+        loop {
+            match objects_sub.take() {
+                Ok(Some((m, _info))) => {
+                    engine.on_tracked_objects(&m, Instant::now());
+                    got = true;
+                    if period.is_none() {
+                        publish(engine.cycle(Instant::now()));
+                    }
+                }
+                Ok(None) => break,
+                Err(e) => engine.on_malformed("tracked_objects", &e.to_string(), Instant::now()),
             }
         }
         let now = Instant::now();
@@ -227,11 +256,8 @@ pub fn run(settings: Settings, domain_id: u16) -> Result<()> {
                 }
                 None => {
                     // on-input mode: still forget stale tracks (and delete their markers)
-                    if !got {
-                        let deletions = engine.expire(now);
-                        if !deletions.markers.is_empty() {
-                            let _ = marker_pub.publish(deletions);
-                        }
+                    if !got && !engine.expire(now).markers.is_empty() {
+                        let _ = marker_pub.publish(engine.output().shared_markers());
                     }
                     next = now + Duration::from_millis(100);
                 }

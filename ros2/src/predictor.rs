@@ -257,6 +257,11 @@ impl Predictor {
         }
     }
 
+    /// The samples of the last successful [`Predictor::predict`].
+    pub fn samples(&self) -> &Samples {
+        &self.samples
+    }
+
     /// Whether a daemon connection is up (always true in-process).
     pub fn connected(&self) -> bool {
         match &self.backend {

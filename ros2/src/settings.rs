@@ -123,8 +123,9 @@ impl Default for Parameters {
 }
 
 /// Default topic names (relative: resolved in the node's namespace), by key.
-pub const TOPICS: [(&str, &str); 4] = [
+pub const TOPICS: [(&str, &str); 5] = [
     ("people", "people"),
+    ("tracked_objects", "tracked_objects"),
     ("predictions", "cliff/predictions"),
     ("markers", "cliff/markers"),
     ("map_markers", "cliff/map_markers"),
@@ -478,6 +479,14 @@ mod tests {
         assert_eq!(t["people"], "/tracker/people");
         assert_eq!(t["markers"], "viz");
         assert_eq!(t["predictions"], "cliff/predictions");
+        assert_eq!(t["tracked_objects"], "tracked_objects");
+        let t =
+            topics(&["tracked_objects:=/perception/object_recognition/tracking/objects".into()])
+                .unwrap();
+        assert_eq!(
+            t["tracked_objects"],
+            "/perception/object_recognition/tracking/objects"
+        );
         assert!(topics(&["/nope:=x".into()]).is_err());
     }
 }

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Install ROS 2 Jazzy from its PyPI wheels into ros2/.venv and build the message
-# packages the tests need (people_msgs from tests/, cliff_msgs) into ros2/.ws/install.
+# packages the tests need (people_msgs and autoware_perception_msgs from tests/, cliff_msgs) into ros2/.ws/install.
 # Idempotent: a second run only checks. Needs Python 3.11 (the wheels are cp311), gcc,
 # g++ and make. Prints the seconds each step took.
 set -euo pipefail
@@ -16,11 +16,11 @@ if [ ! -x "$venv/bin/python" ]; then
 fi
 # shellcheck disable=SC1091
 . "$venv/bin/activate"
-if ! python -c 'import rclpy, rosidl_adapter, colcon_core, rosbags, ament_index_python' 2>/dev/null; then
+if ! python -c 'import rclpy, rosidl_adapter, colcon_core, rosbags, ament_index_python, unique_identifier_msgs' 2>/dev/null; then
   pip install --quiet --disable-pip-version-check \
     'ros-jazzy-rclpy[fastrtps]' ros-jazzy-rmw-fastrtps-cpp \
     ros-jazzy-std-msgs ros-jazzy-geometry-msgs ros-jazzy-visualization-msgs \
-    ros-jazzy-builtin-interfaces ros-jazzy-sensor-msgs \
+    ros-jazzy-builtin-interfaces ros-jazzy-sensor-msgs ros-jazzy-unique-identifier-msgs \
     ros-jazzy-ament-package ros-jazzy-ament-cmake ros-jazzy-ament-cmake-core \
     ros-jazzy-ament-cmake-export-definitions ros-jazzy-ament-cmake-export-dependencies \
     ros-jazzy-ament-cmake-export-include-directories ros-jazzy-ament-cmake-export-interfaces \
@@ -56,12 +56,14 @@ mkdir -p /opt/python/cp311-cp311/include /opt/python/cp311-cp311/lib/python3.11/
 [ -e /opt/python/cp311-cp311/lib/python3.11/site-packages/numpy ] || ln -sfn "$npdir" /opt/python/cp311-cp311/lib/python3.11/site-packages/numpy
 
 t1=$SECONDS
-stamp="$ws/.built-$(cat "$here"/cliff_msgs/msg/*.msg "$here"/cliff_msgs/CMakeLists.txt "$here"/tests/people_msgs/msg/*.msg | sha256sum | cut -c1-16)"
+stamp="$ws/.built-$(cat "$here"/cliff_msgs/msg/*.msg "$here"/cliff_msgs/CMakeLists.txt "$here"/tests/people_msgs/msg/*.msg \
+  "$here"/tests/autoware_perception_msgs/msg/*.msg "$here"/tests/autoware_perception_msgs/CMakeLists.txt | sha256sum | cut -c1-16)"
 if [ ! -e "$stamp" ]; then
   rm -rf "$ws"
   mkdir -p "$ws/src"
   ln -sfn "$here/cliff_msgs" "$ws/src/cliff_msgs"
   ln -sfn "$here/tests/people_msgs" "$ws/src/people_msgs"
+  ln -sfn "$here/tests/autoware_perception_msgs" "$ws/src/autoware_perception_msgs"
   (cd "$ws" && CMAKE_PREFIX_PATH="$venv" AMENT_PREFIX_PATH="$venv" colcon build \
       --event-handlers console_direct- \
       --cmake-args -DPython3_EXECUTABLE="$venv/bin/python" -DBUILD_TESTING=OFF >"$ws/build.log" 2>&1) \

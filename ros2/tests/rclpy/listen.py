@@ -1,6 +1,6 @@
 """Receive cliff-ros2's predictions, markers and latched map markers (a stock rclpy node)
 and write them to --out as JSON once --done appears (plus a settling second) or after
---timeout seconds."""
+--timeout seconds. Each predictions message is kept with the unix time it arrived."""
 import argparse
 import json
 import os
@@ -26,6 +26,7 @@ def main():
     ap.add_argument("--done", required=True)
     ap.add_argument("--out", required=True)
     ap.add_argument("--timeout", type=float, default=120)
+    ap.add_argument("--linger", type=float, default=1.5, help="seconds to keep listening after --done")
     a = ap.parse_args()
 
     rclpy.init()
@@ -34,7 +35,7 @@ def main():
 
     def on_pred(m):
         got["predictions"].append({
-            "stamp": stamp(m.header.stamp), "frame": m.header.frame_id, "dt": m.dt,
+            "wall": time.time(), "stamp": stamp(m.header.stamp), "frame": m.header.frame_id, "dt": m.dt,
             "horizon": m.horizon, "k": m.k, "method": m.method, "map": m.map, "seed": m.seed,
             "people": [{
                 "track_id": p.track_id, "stamp": stamp(p.stamp), "history": p.history,
@@ -73,7 +74,7 @@ def main():
             ready = True
         if done_at is None and os.path.exists(a.done):
             done_at = time.monotonic()
-        if done_at is not None and time.monotonic() - done_at > 1.5:
+        if done_at is not None and time.monotonic() - done_at > a.linger:
             break
     with open(a.out, "w") as f:
         json.dump(got, f)

@@ -6,11 +6,17 @@ observation; predicted from the observations within --history-seconds of its new
 when there are two or more; in the order the ids were first seen), the histories so
 found are predicted in-process by cliff-ros2-reference (cliff-client's Request and
 LocalPredictor, the code path of `cliff predict` and cliffd) and the node's points must
-equal the reference's exactly (float32 for float32). Prints one line per check and
-`N passed, N failed`; exits 1 on any failure.
+equal the reference's exactly (float32 for float32). A message whose stamp is more than
+--timeout older than the newest resets every track (a tracker restarted). With
+--transform, the sent positions are first mapped into the map frame as the node's static
+transform does. Optional checks: every marker ever added was deleted by the end
+(--all-deleted), the daemon's absence (--gone/--back), warnings in the node's log
+(--log, --warn), and with --expect-skipped that nothing was predicted at all. Prints one
+line per check and `N passed, N failed`; exits 1 on any failure.
 """
 import argparse
 import json
+import math
 import struct
 import subprocess
 import sys
@@ -37,15 +43,22 @@ class Results:
             print(f"FAIL {self.name}: {what}" + (f": {detail}" if detail else ""))
 
 
-def replay(sent, timeout, history_seconds):
+def replay(sent, timeout, history_seconds, transform=None):
     """Expected (ids, histories) after each published message, by stamp."""
     order, obs = [], {}
     newest = None
     out = {}
+    if transform:
+        tx, ty, yaw = transform
+        c, s = math.cos(yaw), math.sin(yaw)
     for m in sent:
         t = secs(m["stamp"])
+        if newest is not None and t < newest - timeout:
+            order, obs, newest = [], {}, None
         newest = t if newest is None or t > newest else newest
         for name, x, y in m["people"]:
+            if transform:
+                x, y = c * x - s * y + tx, s * x + c * y + ty
             if name not in obs:
                 order.append(name)
                 obs[name] = []
@@ -67,6 +80,45 @@ def replay(sent, timeout, history_seconds):
     return out
 
 
+def check_log(r, path, specs):
+    """specs: "TEXT:MIN:MAX", the number of node log lines holding TEXT."""
+    lines = open(path, errors="replace").read().splitlines()
+    for spec in specs:
+        text, lo, hi = spec.rsplit(":", 2)
+        n = sum(1 for line in lines if text in line)
+        r.check(int(lo) <= n <= int(hi), f"node log: {n} lines with '{text}' (expected {lo}..{hi})")
+
+
+def check_all_deleted(r, markers):
+    last = {}
+    for m in markers:
+        for k in m:
+            if k["action"] in (0, 2):
+                last[(k["ns"], k["id"])] = k["action"]
+    left = [key for key, action in last.items() if action != 2]
+    r.check(last and not left,
+            f"every sample marker added ({len(last)}) was deleted once its track went stale", f"left: {left[:5]}")
+
+
+def check_gone(r, sent, preds, gone, back):
+    """The daemon stopped at `gone` and was started again at `back` (unix times)."""
+    during = [p for p in preds if gone + 0.5 < p["wall"] < back]
+    r.check(not during, f"no prediction while the daemon was away ({back - gone:.1f} s)",
+            f"{len(during)} arrived")
+    after_sent = [m for m in sent if m["wall"] > back + 2.0]
+    after = [p for p in preds if p["wall"] > back + 2.0]
+    r.check(after_sent and len(after) >= 0.9 * len(after_sent),
+            f"predictions back by themselves after the restart ({len(after)} for {len(after_sent)} messages)")
+
+
+def expect_skipped(r, got):
+    with_people = [p for p in got["predictions"] if p["people"]]
+    adds = [m for m in got["markers"] if any(k["action"] == 0 for k in m)]
+    r.check(not with_people and not adds,
+            f"nothing predicted from the skipped input ({len(got['predictions'])} predictions messages, "
+            f"{len(with_people)} with people, {len(adds)} marker arrays with samples)")
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--name", default="rclpy")
@@ -84,17 +136,35 @@ def main():
     ap.add_argument("--timeout", type=float, default=2.0)
     ap.add_argument("--history-seconds", type=float, default=3.2)
     ap.add_argument("--min-received", type=float, default=0.95)
+    ap.add_argument("--transform", default="", help="x y yaw of the static transform into the map frame")
+    ap.add_argument("--all-deleted", action="store_true")
+    ap.add_argument("--gone", default="", help="file holding the unix time the daemon was stopped")
+    ap.add_argument("--back", default="", help="file holding the unix time it was started again")
+    ap.add_argument("--log", default="", help="the node's log")
+    ap.add_argument("--warn", action="append", default=[], help="TEXT:MIN:MAX lines of --log")
+    ap.add_argument("--expect-skipped", action="store_true")
     a = ap.parse_args()
     r = Results(a.name)
 
     sent = json.load(open(a.sent))
     got = json.load(open(a.received))
     preds = got["predictions"]
+    if a.log:
+        check_log(r, a.log, a.warn)
+    if a.expect_skipped:
+        expect_skipped(r, got)
+        print(f"{r.name}: {r.passed} passed, {r.failed} failed")
+        return r
+    if a.gone:
+        check_gone(r, sent, preds, float(open(a.gone).read()), float(open(a.back).read()))
+    if a.all_deleted:
+        check_all_deleted(r, got["markers"])
     r.check(len(sent) > 0 and len(preds) >= a.min_received * len(sent),
             f"{len(preds)} predictions for {len(sent)} people messages",
             f"expected at least {a.min_received:.0%}")
 
-    expected = replay(sent, a.timeout, a.history_seconds)
+    transform = [float(v) for v in a.transform.split()] if a.transform else None
+    expected = replay(sent, a.timeout, a.history_seconds, transform)
     bad_meta, bad_rules, cycles = [], [], []
     for p in preds:
         key = tuple(p["stamp"])
