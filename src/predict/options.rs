@@ -38,6 +38,17 @@
 //!   typical speed of the map's walkers with the map's
 //!   [`SpeedPrior`](crate::motion::SpeedPrior) (`cliff map build` learns one; a map
 //!   without one leaves the speed as observed).
+//! * **Trust** ([`Options::trust`] > 0 seconds): near the present the observed motion
+//!   holds: at the step that starts `t` seconds ahead the heading kernel's weight is
+//!   scaled by `1 - exp(-t / trust)`, and the speed goes from the observed one to the
+//!   speed prior's as the same share (so the first step is the observed velocity's).
+//! * **Blend** ([`Options::blend`] > 0 seconds): the positions leave the
+//!   constant-velocity line gradually: `w` times constant velocity's position plus
+//!   `1 - w` times the sample's, `w = exp(-(t - dt) / blend)` (the rollout itself, and so
+//!   where a sample ends, is unchanged).
+//! * **Rank** ([`Options::rank`]): with [`Rank::Consensus`] the scores measure how
+//!   central a sample is among the agent's samples instead of its likelihood, so the
+//!   best-ranked sample is the one to keep as a single prediction.
 //!
 //! The draws: with the speed kernel, each live sample's draw takes one uniform and two
 //! normals (direction, then speed) instead of one uniform and one normal; coasting
