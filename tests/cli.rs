@@ -448,6 +448,12 @@ fn improved_is_cliff_with_the_preset_in_eval_and_predict() {
         "--candidates",
         "5",
         "--speed-prior",
+        "--trust",
+        "0.5",
+        "--blend",
+        "3",
+        "--rank",
+        "consensus",
     ];
     let beta2 = eval("beta2", &[&["--methods", "cliff"][..], &preset].concat());
     // the improved rows are those of CLiFF-LHMP with the preset's options, whatever

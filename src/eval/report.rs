@@ -62,7 +62,8 @@ pub struct SummaryRow {
     pub top1_ade: f64,
     /// Mean top-1 FDE.
     pub top1_fde: f64,
-    /// Share of the people whose ground truth lasts this long that were predicted this far.
+    /// Share of the people whose ground truth lasts this long that a prediction (one
+    /// seed's samples) reaches: `people` over those people, so a mean over seeds.
     pub reach: f64,
     /// Seeds run.
     pub seeds: usize,
@@ -228,9 +229,7 @@ pub fn evaluate<M: MapAt + Sync + ?Sized>(
             // per seed: (people, sums of ade, fde, min_ade, min_fde, top1_ade, top1_fde)
             let mut per_seed = vec![[0.0f64; 7]; n_seeds];
             let eligible = cases.iter().filter(|c| c.steps > j).count();
-            let mut reached = 0usize;
             for r in &results {
-                let mut any = false;
                 for (s, acc) in per_seed.iter_mut().enumerate() {
                     if let Some(Some(e)) = r[mi][s].get(j) {
                         acc[0] += 1.0;
@@ -240,10 +239,8 @@ pub fn evaluate<M: MapAt + Sync + ?Sized>(
                         acc[4] += e.min_fde;
                         acc[5] += e.top1_ade;
                         acc[6] += e.top1_fde;
-                        any = true;
                     }
                 }
-                reached += any as usize;
             }
             let means: Vec<[f64; 7]> = per_seed
                 .iter()
@@ -280,7 +277,7 @@ pub fn evaluate<M: MapAt + Sync + ?Sized>(
                 top1_ade,
                 top1_fde,
                 reach: if eligible > 0 {
-                    reached as f64 / eligible as f64
+                    people / eligible as f64
                 } else {
                     0.0
                 },

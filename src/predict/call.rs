@@ -18,6 +18,8 @@ pub(super) struct Candidates {
     pub(super) lens: Vec<u32>,
     pub(super) scores: Vec<f32>,
     pub(super) order: Vec<u32>,
+    /// Per step: the sums of the samples' x and y, and how many reach it (consensus).
+    pub(super) centre: Vec<[f64; 3]>,
 }
 
 /// One call's inputs and outputs, for the flavour dispatch.
@@ -40,7 +42,7 @@ impl Call<'_, '_> {
             return self.cvm(near);
         }
         let e = self.extras;
-        let motion = if e.coast_steps > 0 || e.follow > 0.0 {
+        let motion = if e.coast_steps > 0 || e.follow > 0.0 || e.trust > 0.0 || e.blend > 0.0 {
             ANY
         } else if e.speed_beta > 0.0 {
             SPEED
@@ -109,6 +111,7 @@ impl Call<'_, '_> {
             let lanes = Lanes {
                 map,
                 near: &near,
+                observed_speed: agents[a].speed,
                 state,
                 params,
                 extras,
@@ -117,12 +120,11 @@ impl Call<'_, '_> {
             let lens = &mut out.lens[a * k..(a + 1) * k];
             let agent_scores = scores.as_deref_mut().map(|s| &mut s[a * k..(a + 1) * k]);
             if c == 1 {
-                lanes.roll_agent::<MOTION, SCORES>(
-                    rng,
-                    tracks,
-                    lens,
-                    agent_scores.unwrap_or(&mut []),
-                );
+                let agent_scores = agent_scores.unwrap_or(&mut []);
+                lanes.roll_agent::<MOTION, SCORES>(rng, tracks, lens, agent_scores);
+                if extras.consensus && !agent_scores.is_empty() {
+                    consensus(tracks, lens, agent_scores, &mut scratch.centre);
+                }
                 continue;
             }
             lanes.roll_agent::<MOTION, true>(
@@ -150,10 +152,44 @@ impl Call<'_, '_> {
                 lens[s] = scratch.lens[i];
             }
             if let Some(out_scores) = agent_scores {
-                for (s, &i) in scratch.order[..k].iter().enumerate() {
-                    out_scores[s] = scratch.scores[i as usize];
+                if extras.consensus {
+                    consensus(tracks, lens, out_scores, &mut scratch.centre);
+                } else {
+                    for (s, &i) in scratch.order[..k].iter().enumerate() {
+                        out_scores[s] = scratch.scores[i as usize];
+                    }
                 }
             }
         }
+    }
+}
+
+/// [`Rank::Consensus`](super::Rank::Consensus) scores of one agent's samples (`tracks`
+/// holds `lens.len()` samples of equal length): minus each sample's mean distance from
+/// the samples' mean position at its steps, minus
+/// [`CONSENSUS_STEP_PENALTY`](super::CONSENSUS_STEP_PENALTY) per step it does not reach.
+fn consensus(tracks: &[Point], lens: &[u32], scores: &mut [f32], centre: &mut Vec<[f64; 3]>) {
+    let steps = tracks.len() / lens.len().max(1);
+    centre.clear();
+    centre.resize(steps, [0.0; 3]);
+    for (track, &len) in tracks.chunks_exact(steps.max(1)).zip(lens) {
+        for (c, p) in centre.iter_mut().zip(&track[..len as usize]) {
+            c[0] += p[0] as f64;
+            c[1] += p[1] as f64;
+            c[2] += 1.0;
+        }
+    }
+    for c in centre.iter_mut().filter(|c| c[2] > 0.0) {
+        c[0] /= c[2];
+        c[1] /= c[2];
+    }
+    for ((track, &len), score) in tracks.chunks_exact(steps.max(1)).zip(lens).zip(scores) {
+        let len = len as usize;
+        let mut sum = 0.0;
+        for (c, p) in centre.iter().zip(&track[..len]) {
+            sum += (p[0] as f64 - c[0]).hypot(p[1] as f64 - c[1]);
+        }
+        let mean = if len > 0 { sum / len as f64 } else { 0.0 };
+        *score = (-mean - (steps - len) as f64 * super::CONSENSUS_STEP_PENALTY) as f32;
     }
 }

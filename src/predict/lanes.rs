@@ -23,6 +23,12 @@ pub(super) struct Extras {
     /// Samples drawn per kept sample (at least 1).
     pub(super) candidates: usize,
     pub(super) speed_prior: Option<SpeedPrior>,
+    /// [`Options::trust`](super::Options::trust), seconds (0: off).
+    pub(super) trust: f64,
+    /// [`Options::blend`](super::Options::blend), seconds (0: off).
+    pub(super) blend: f64,
+    /// Scores by [`Rank::Consensus`](super::Rank::Consensus) instead of likelihood.
+    pub(super) consensus: bool,
 }
 
 /// Lane-loop flavour: the paper's method, without per-sample speeds or coasting state.
@@ -50,6 +56,8 @@ pub(super) struct Lanes<'a, F> {
     pub(super) map: &'a CliffMap,
     pub(super) near: &'a F,
     pub(super) state: &'a State,
+    /// The observed speed (`state.speed` is the speed prior's, when on).
+    pub(super) observed_speed: f64,
     pub(super) params: &'a Params,
     pub(super) extras: &'a Extras,
 }
@@ -112,6 +120,7 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
             map,
             near,
             state,
+            observed_speed,
             params,
             extras,
         } = *self;
@@ -132,6 +141,8 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
         let follow = extras.follow as f32;
         let coast_steps = if MOTION == ANY { extras.coast_steps } else { 0 };
         let coasting = coast_steps > 0;
+        let blend = MOTION == ANY && extras.blend > 0.0;
+        let trusting = MOTION == ANY && extras.trust > 0.0;
         let theta0 = wrap_2pi(state.heading);
         let (s0, c0) = fastmath::sin_cos(theta0);
         let start = near(state.position);
@@ -140,7 +151,11 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
         let mut ux = [c0 as f32; N];
         let mut uy = [s0 as f32; N];
         let mut theta = [theta0; N];
-        let mut speed = [state.speed; N];
+        let mut speed = [if trusting {
+            observed_speed
+        } else {
+            state.speed
+        }; N];
         let mut loc = [start.unwrap_or(0); N];
         // alive: the sample goes on; on_map: it has a location to sample from (always,
         // without coasting). Lanes n..N stay dead: they never draw, and their
@@ -163,6 +178,28 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
         let mut score = [0.0f32; N];
         lens.fill(0);
         for j in 0..steps {
+            // Trust: how far the map has taken over from the observed motion at the
+            // start of this step (0 at the first); the speed moves from the observed one
+            // towards the prior's as the heading kernel gains weight.
+            let gain = if trusting {
+                1.0 - fastmath::exp_neg(-(j as f64) * dt / extras.trust)
+            } else {
+                1.0
+            };
+            if trusting && !with_speed {
+                speed = [observed_speed + (state.speed - observed_speed) * gain; N];
+            }
+            // Blend: this step's constant-velocity position and its weight.
+            let (cv_weight, cv_x, cv_y) = if blend {
+                let d = observed_speed * dt * (j + 1) as f64;
+                (
+                    fastmath::exp_neg(-(j as f64) * dt / extras.blend),
+                    state.position.x + c0 * d,
+                    state.position.y + s0 * d,
+                )
+            } else {
+                (0.0, 0.0, 0.0)
+            };
             // Phase 1: draw at each sampling lane's location (in lane order); follow's
             // weights, which draw nothing, first for all lanes.
             let weights = if follow_split {
@@ -201,8 +238,15 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
                     let (ts4, _) = ts32.as_chunks::<4>();
                     let (ux4, _) = ux.as_chunks_mut::<4>();
                     let (uy4, _) = uy.as_chunks_mut::<4>();
-                    for ((t, hx), hy) in ts4.iter().zip(ux4).zip(uy4) {
-                        turn4(t, hx, hy, beta);
+                    if trusting {
+                        let gain = gain as f32;
+                        for ((t, hx), hy) in ts4.iter().zip(ux4).zip(uy4) {
+                            turn4::<true>(t, hx, hy, beta, gain);
+                        }
+                    } else {
+                        for ((t, hx), hy) in ts4.iter().zip(ux4).zip(uy4) {
+                            turn4::<false>(t, hx, hy, beta, 1.0);
+                        }
                     }
                 }
                 HeadingRule::Paper => {
@@ -213,7 +257,10 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
                         } else if signed < -PI {
                             signed += 2.0 * PI;
                         }
-                        let lambda = fastmath::exp_neg(-params.beta * signed * signed);
+                        let mut lambda = fastmath::exp_neg(-params.beta * signed * signed);
+                        if trusting {
+                            lambda *= gain;
+                        }
                         theta[l] = wrap_2pi(theta[l] + lambda * signed);
                         let (sin, cos) = fastmath::sin_cos(theta[l]);
                         ux[l] = cos as f32;
@@ -291,7 +338,15 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
                         continue;
                     }
                 }
-                tracks[l * steps + j] = [px[l] as f32, py[l] as f32];
+                tracks[l * steps + j] = if blend {
+                    let w = cv_weight;
+                    [
+                        (w * cv_x + (1.0 - w) * px[l]) as f32,
+                        (w * cv_y + (1.0 - w) * py[l]) as f32,
+                    ]
+                } else {
+                    [px[l] as f32, py[l] as f32]
+                };
                 lens[l] = j as u32 + 1;
                 if SCORES {
                     score[l] += step_score[l];
@@ -337,15 +392,25 @@ fn follow_weights<const N: usize>(
 /// The reference's heading update for four lanes: the circular weighted mean of the
 /// sampled direction `t` (weight `lambda = exp(-beta * delta^2)`) and the heading
 /// `(hx, hy)` (weight `1 - lambda`), as a unit vector. Straight-line code over four
-/// lanes, which the compiler turns into SSE2 instructions.
+/// lanes, which the compiler turns into SSE2 instructions. With `GAIN` the kernel's
+/// weight is scaled by `gain` ([`Options::trust`](super::Options::trust)).
 #[inline(always)]
-fn turn4(t: &[f32; 4], hx: &mut [f32; 4], hy: &mut [f32; 4], beta: f32) {
+fn turn4<const GAIN: bool>(
+    t: &[f32; 4],
+    hx: &mut [f32; 4],
+    hy: &mut [f32; 4],
+    beta: f32,
+    gain: f32,
+) {
     for l in 0..4 {
         let (sin, cos) = fastmath::sin_cos_f32(t[l]);
         let (x, y) = (hx[l], hy[l]);
         // |shortest angle| between the sample and the heading, in [0, pi].
         let delta = fastmath::acos_f32(cos * x + sin * y);
-        let lambda = fastmath::exp_neg_f32(-beta * delta * delta);
+        let mut lambda = fastmath::exp_neg_f32(-beta * delta * delta);
+        if GAIN {
+            lambda *= gain;
+        }
         let vx = cos * lambda + x * (1.0 - lambda);
         let vy = sin * lambda + y * (1.0 - lambda);
         let n2 = vx * vx + vy * vy;

@@ -40,7 +40,7 @@ use crate::map::CliffMap;
 use crate::motion::State;
 
 pub use batch::{BatchMut, Point, TrajectoryBatch};
-pub use options::{NO_LOCATION_LOG_DENSITY, Options};
+pub use options::{CONSENSUS_STEP_PENALTY, NO_LOCATION_LOG_DENSITY, Options, Rank};
 pub use rollout::{Rollout, Tables};
 pub use with_options::{predict_into_with, predict_with};
 

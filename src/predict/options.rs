@@ -38,6 +38,17 @@
 //!   typical speed of the map's walkers with the map's
 //!   [`SpeedPrior`](crate::motion::SpeedPrior) (`cliff map build` learns one; a map
 //!   without one leaves the speed as observed).
+//! * **Trust** ([`Options::trust`] > 0 seconds): near the present the observed motion
+//!   holds: at the step that starts `t` seconds ahead the heading kernel's weight is
+//!   scaled by `1 - exp(-t / trust)`, and the speed goes from the observed one to the
+//!   speed prior's as the same share (so the first step is the observed velocity's).
+//! * **Blend** ([`Options::blend`] > 0 seconds): the positions leave the
+//!   constant-velocity line gradually: `w` times constant velocity's position plus
+//!   `1 - w` times the sample's, `w = exp(-(t - dt) / blend)` (the rollout itself, and so
+//!   where a sample ends, is unchanged).
+//! * **Rank** ([`Options::rank`]): with [`Rank::Consensus`] the scores measure how
+//!   central a sample is among the agent's samples instead of its likelihood, so the
+//!   best-ranked sample is the one to keep as a single prediction.
 //!
 //! The draws: with the speed kernel, each live sample's draw takes one uniform and two
 //! normals (direction, then speed) instead of one uniform and one normal; coasting
@@ -82,7 +93,39 @@ pub struct Options {
     pub candidates: u32,
     /// Start from the speed the map's speed prior gives for the observed one.
     pub speed_prior: bool,
+    /// Seconds over which the map takes over from the observed motion: at the step that
+    /// starts `t` seconds ahead the heading kernel's weight and the speed prior's pull
+    /// are scaled by `1 - exp(-t / trust)` (0: the map acts fully from the first step).
+    pub trust: f64,
+    /// Seconds over which the predicted positions leave the constant-velocity line: the
+    /// position `t` seconds ahead is `w` times constant velocity's plus `1 - w` times
+    /// the sample's, `w = exp(-(t - dt) / blend)` (0: the samples as rolled).
+    pub blend: f64,
+    /// What the scores rank: the likelihood under the map (the default) or the
+    /// agreement with the other samples ([`Rank::Consensus`]).
+    pub rank: Rank,
 }
+
+/// What a sample's score ([`Options::scores`]) measures, and so which sample
+/// [`TrajectoryBatch::best_sample`](super::TrajectoryBatch::best_sample) picks.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Rank {
+    /// The log-likelihood of the sample's rollout under the map.
+    #[default]
+    Likelihood,
+    /// Agreement with the agent's other samples: minus the mean distance (m) of the
+    /// sample's positions from the mean position of the samples at each step, minus
+    /// [`CONSENSUS_STEP_PENALTY`] per step of the horizon the sample does not reach.
+    /// The best-ranked sample is the most central one among those that reach furthest:
+    /// as a single prediction it has a lower error than the likeliest sample (held-out
+    /// figures in docs/accuracy.md).
+    Consensus,
+}
+
+/// What a step of the horizon that a sample does not reach costs its
+/// [`Rank::Consensus`] score (m): more than any distance between samples, so samples
+/// that reach further rank first.
+pub const CONSENSUS_STEP_PENALTY: f64 = 1.0e4;
 
 /// Largest [`Options::follow`]: beyond it a heading's likelihood under a component
 /// 180 degrees away underflows towards zero and nothing changes.
@@ -100,6 +143,9 @@ impl Options {
             && self.follow == 0.0
             && self.candidates <= 1
             && !self.speed_prior
+            && self.trust == 0.0
+            && self.blend == 0.0
+            && self.rank == Rank::Likelihood
     }
 
     /// How many times the paper's work a call with these options does, at most: the
@@ -141,6 +187,18 @@ impl Options {
             return Err(PredictError::Param {
                 name: "follow",
                 why: format!("{} is not a number in [0, {MAX_FOLLOW}]", self.follow),
+            });
+        }
+        if !(self.trust.is_finite() && self.trust >= 0.0) {
+            return Err(PredictError::Param {
+                name: "trust",
+                why: format!("{} is not a non-negative number of seconds", self.trust),
+            });
+        }
+        if !(self.blend.is_finite() && self.blend >= 0.0) {
+            return Err(PredictError::Param {
+                name: "blend",
+                why: format!("{} is not a non-negative number of seconds", self.blend),
             });
         }
         if self.candidates > MAX_CANDIDATES {

@@ -16,16 +16,17 @@
 //! assert!(o.scores);
 //! ```
 
-use super::{Method, Options, Params};
+use super::{Method, Options, Params, Rank};
 
 /// What a preset method sets; everything else (`k`, `dt`, `horizon`, `radius`, `seed`,
-/// the heading rule) is the caller's.
+/// the heading rule, and [`Options::coast`]) is the caller's.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Preset {
     /// Kernel parameter [`Params::beta`].
     pub beta: f64,
-    /// The options beyond the paper ([`Options::speed_beta`], [`Options::coast`],
-    /// [`Options::scores`]); they replace the caller's.
+    /// The options beyond the paper; they replace the caller's, except
+    /// [`Options::coast`], which stays the caller's (a planner that needs every sample
+    /// to reach the horizon sets it to the horizon).
     pub options: Options,
 }
 
@@ -38,17 +39,26 @@ pub struct Preset {
 /// * **5 candidates** ([`Options::candidates`]): the `k` samples kept are the best of
 ///   `5 k` drawn, those that reach furthest and then the most likely under the map
 ///   (five times the paper's work);
-/// * **the speed prior** ([`Options::speed_prior`]): the start speed regresses to the
+/// * **the speed prior** ([`Options::speed_prior`]): the speed regresses to the
 ///   typical speed of the map's walkers ([`SpeedPrior`](crate::motion::SpeedPrior),
 ///   which `cliff map build` learns from its tracks; a map without one keeps the
 ///   observed speed);
-/// * **scores** ([`Options::scores`]): callers that keep one prediction take the most
-///   likely sample ([`TrajectoryBatch::best_sample`](super::TrajectoryBatch::best_sample)).
+/// * **trust 0.5 s** ([`Options::trust`]): the map's pull on the heading and the speed
+///   prior's on the speed grow as `1 - exp(-t / 0.5 s)`, so the first step is the
+///   observed motion's;
+/// * **blend 3 s** ([`Options::blend`]): the positions leave the constant-velocity line
+///   with weight `exp(-(t - dt) / 3 s)` on it: near the present the prediction is
+///   constant velocity's, from about 10 s on the map's samples alone;
+/// * **scores ranked by consensus** ([`Options::scores`], [`Rank::Consensus`]): the
+///   best-ranked sample ([`TrajectoryBatch::best_sample`](super::TrajectoryBatch::best_sample))
+///   is the most central of those that reach furthest, the single prediction to keep.
 ///
-/// On ATC's held-out hours (atc/dev, map from atc/train, 10 seeds, the same people) its
-/// mean ADE is 16 % below the paper's at 5 s, 27 % at 20 s and 13 % at 50 s (README,
-/// "Beyond the paper"). Its content is set by the project's held-out experiments and may
-/// change between versions; `cliff` (the paper's method) stays as it is.
+/// On held-out people (maps from training data only, 10 seeds, paired over the same
+/// people or windows; docs/accuracy.md) its mean ADE and FDE are no higher than constant
+/// velocity's at any horizon on THÖR1, THÖR3, THÖR-MAGNI and ATC, and on ATC's dev hours
+/// 14 % below the paper's at 5 s, 17 % at 20 s and 12 % at 50 s. Its content is set by
+/// the project's held-out experiments and may change between versions; `cliff` (the
+/// paper's method) stays as it is.
 pub const IMPROVED: Preset = Preset {
     beta: 2.0,
     options: Options {
@@ -58,6 +68,9 @@ pub const IMPROVED: Preset = Preset {
         follow: 4.0,
         candidates: 5,
         speed_prior: true,
+        trust: 0.5,
+        blend: 3.0,
+        rank: Rank::Consensus,
     },
 };
 
@@ -79,7 +92,10 @@ pub fn resolve(params: &Params, options: &Options) -> (Params, Options) {
                 beta: IMPROVED.beta,
                 ..*params
             },
-            IMPROVED.options,
+            Options {
+                coast: options.coast,
+                ..IMPROVED.options
+            },
         ),
         Method::Cliff | Method::Cvm => (*params, *options),
     }

@@ -191,6 +191,9 @@ impl Rollout {
             } else {
                 None
             },
+            trust: options.trust,
+            blend: options.blend,
+            consensus: options.rank == super::Rank::Consensus,
         };
         let lookup = match (params.method, scores.is_some(), self.tables) {
             // constant velocity looks the map up only for scores

@@ -19,7 +19,7 @@ use std::path::PathBuf;
 use clap::Args;
 use cliff::eval::protocol::{Protocol, Settings};
 use cliff::plot::Extent;
-use cliff::predict::{HeadingRule, Method, Options, Params};
+use cliff::predict::{HeadingRule, Method, Options, Params, Rank};
 use cliff::tracks::{Columns, Format};
 
 /// Protocol and prediction parameters shared by `eval` and `predict`.
@@ -88,6 +88,28 @@ pub struct PredictionArgs {
     /// keep the observed speed.
     #[arg(long)]
     pub speed_prior: bool,
+    /// Trust (beyond the paper): seconds over which the map takes over from the observed
+    /// motion; the heading kernel and the speed prior act `1 - exp(-t / trust)` of their
+    /// full strength `t` seconds ahead. 0: fully from the first step (the paper).
+    #[arg(long, default_value_t = 0.0, value_parser = non_negative)]
+    pub trust: f64,
+    /// Blend (beyond the paper): seconds over which the predicted positions leave the
+    /// constant-velocity line (weight `exp(-(t - dt) / blend)` on constant velocity's
+    /// position `t` seconds ahead). 0: the samples as rolled (the paper).
+    #[arg(long, default_value_t = 0.0, value_parser = non_negative)]
+    pub blend: f64,
+    /// What the scores (and so top-1) rank: `likelihood` under the map, or `consensus`
+    /// (the sample nearest the samples' mean path, among those reaching furthest).
+    #[arg(long, default_value = "likelihood", value_parser = parse_rank)]
+    pub rank: Rank,
+}
+
+fn parse_rank(s: &str) -> Result<Rank, String> {
+    match s {
+        "likelihood" => Ok(Rank::Likelihood),
+        "consensus" => Ok(Rank::Consensus),
+        _ => Err(format!("{s:?}: expected likelihood or consensus")),
+    }
 }
 
 impl PredictionArgs {
@@ -114,6 +136,9 @@ impl PredictionArgs {
             follow: self.follow,
             candidates: self.candidates,
             speed_prior: self.speed_prior,
+            trust: self.trust,
+            blend: self.blend,
+            rank: self.rank,
         }
     }
 

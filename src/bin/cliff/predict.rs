@@ -7,7 +7,7 @@ use anyhow::{Context, Result};
 use clap::Args;
 use cliff::eval::protocol::prepare;
 use cliff::map::timeofday::slice_label;
-use cliff::predict::{Method, TrajectoryBatch};
+use cliff::predict::{Method, Rank, TrajectoryBatch};
 use cliff::tracks::Format;
 
 use crate::args::{PredictionArgs, ReadArgs};
@@ -69,7 +69,8 @@ pub fn run(a: PredictArgs) -> Result<()> {
     let mut batch = TrajectoryBatch::new();
     let map = maps.at(case.start.time);
     let params = predict_case(map, &case, &a.prediction, a.method, a.seed, &mut batch)?;
-    // score: the sample's log-likelihood under the map (the same on each of its rows)
+    // score: the sample's log-likelihood under the map, or with consensus ranking (and
+    // for `improved`) its closeness to the other samples (the same on each of its rows)
     let mut out = String::from("sample,step,t,x,y,score\n");
     for s in 0..params.k {
         let score = batch.score(0, s).unwrap_or(f32::NAN);
@@ -103,7 +104,7 @@ pub fn run(a: PredictArgs) -> Result<()> {
                 None => String::new(),
             };
             println!(
-                "person {}: start ({:.2}, {:.2}) at t {:.2}{slice}, speed {:.2} m/s, heading {:.1} deg; {} samples of {} steps ({} reach the end, the most likely is sample {}); wrote {}",
+                "person {}: start ({:.2}, {:.2}) at t {:.2}{slice}, speed {:.2} m/s, heading {:.1} deg; {} samples of {} steps ({} reach the end, the {} is sample {}); wrote {}",
                 case.id,
                 case.start.position.x,
                 case.start.position.y,
@@ -113,6 +114,11 @@ pub fn run(a: PredictArgs) -> Result<()> {
                 params.k,
                 case.steps,
                 reached,
+                if a.method == Method::Improved || a.prediction.rank == Rank::Consensus {
+                    "best-ranked"
+                } else {
+                    "most likely"
+                },
                 batch.best_sample(0).unwrap_or(0),
                 path.display()
             );
