@@ -17,7 +17,7 @@ use std::time::{Duration, Instant};
 
 use cliff::predict::{Method, Params};
 use cliff_client::{Client, ClientOptions, Observation, Request, Status, WaitMode, wire};
-use rand::{Rng, RngExt, SeedableRng};
+use rand::{RngExt, SeedableRng};
 use rand_xoshiro::Xoshiro256PlusPlus;
 use zenoh::Wait;
 
@@ -305,10 +305,10 @@ fn main() {
         let far = Client::connect_zenoh_with(&[endpoint.clone()], None, &service, options.clone())
             .expect("connect over zenoh");
         let near = Client::connect_with(&service, options).expect("connect over iceoryx2");
+        let session = (phase == "beside-hostile").then(|| raw_session(&endpoint));
         let (mut far, mut near) = std::thread::scope(|s| {
             let far = s.spawn(|| victim(far, &stop, 20));
             let near = s.spawn(|| victim(near, &stop, 20));
-            let session = (phase == "beside-hostile").then(|| raw_session(&endpoint));
             if let Some(session) = &session {
                 s.spawn(|| flood(session, &key, n, &stop, &hostile));
                 s.spawn(|| fuzz(session, &key, &stop, &hostile));
