@@ -302,8 +302,13 @@ fn main() {
             prefix: prefix.clone(),
             ..ClientOptions::default()
         };
-        let far = Client::connect_zenoh_with(&[endpoint.clone()], None, &service, options.clone())
-            .expect("connect over zenoh");
+        let far = Client::connect_zenoh_with(
+            std::slice::from_ref(&endpoint),
+            None,
+            &service,
+            options.clone(),
+        )
+        .expect("connect over zenoh");
         let near = Client::connect_with(&service, options).expect("connect over iceoryx2");
         let session = (phase == "beside-hostile").then(|| raw_session(&endpoint));
         let (mut far, mut near) = std::thread::scope(|s| {

@@ -122,6 +122,8 @@ pub struct Admitted {
 
 impl Admitted {
     /// Admit `query` for its session ([`session_of`]), or give it back with the reason.
+    // (the query is handed back as it is: boxing it would allocate for every refusal)
+    #[allow(clippy::result_large_err)]
     pub fn new(query: Query, sessions: &Arc<Sessions>) -> Result<Admitted, (Query, Refusal)> {
         let session = session_of(&query);
         match sessions.admit(session) {
