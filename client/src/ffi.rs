@@ -238,7 +238,7 @@ pub extern "C" fn cliff_last_error() -> *const c_char {
 /// The name of a status code (`"unknown-map"`, ...); a static string.
 #[unsafe(no_mangle)]
 pub extern "C" fn cliff_status_name(status: u32) -> *const c_char {
-    const NAMES: [&CStr; 17] = [
+    const NAMES: [&CStr; 19] = [
         c"ok",
         c"bad-version",
         c"unknown-map",
@@ -256,6 +256,8 @@ pub extern "C" fn cliff_status_name(status: u32) -> *const c_char {
         c"reload-failed",
         c"internal",
         c"radius-too-large",
+        c"busy",
+        c"too-many-sessions",
     ];
     match Status::from_code(status) {
         Some(s) => NAMES[s.code() as usize].as_ptr(),

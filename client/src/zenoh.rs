@@ -165,6 +165,9 @@ impl ZenohLink {
             .session
             .get(&self.key)
             .payload(ZBytes::from(bytes))
+            // the session this request counts for (the daemon allows each session as
+            // many requests in flight as a local client)
+            .attachment(ZBytes::from(self.session.zid().to_le_bytes()))
             .consolidation(ConsolidationMode::None)
             .congestion_control(CongestionControl::Drop)
             .timeout(deadline)

@@ -134,6 +134,19 @@ struct Args {
     #[cfg(feature = "zenoh")]
     #[arg(long, value_name = "FILE")]
     zenoh_config: Option<PathBuf>,
+
+    /// Remote (zenoh) sessions with requests in flight at once; a request from another
+    /// session gets status too-many-sessions. Each session may have
+    /// --max-active-requests in flight; beyond, requests get status busy at once.
+    #[cfg(feature = "zenoh")]
+    #[arg(long, default_value_t = Settings::default().max_remote_sessions)]
+    max_remote_sessions: usize,
+
+    /// The largest zenoh message the daemon accepts, in bytes (by default the largest
+    /// request the limits allow plus 4096, whatever the zenoh configuration file says).
+    #[cfg(feature = "zenoh")]
+    #[arg(long, value_name = "BYTES")]
+    zenoh_max_message_bytes: Option<usize>,
 }
 
 fn main() -> ExitCode {
@@ -181,6 +194,10 @@ fn main() -> ExitCode {
         chunk_positions: args.chunk_positions,
         max_clients: args.max_clients,
         max_active_requests: args.max_active_requests,
+        #[cfg(feature = "zenoh")]
+        max_remote_sessions: args.max_remote_sessions,
+        #[cfg(not(feature = "zenoh"))]
+        max_remote_sessions: Settings::default().max_remote_sessions,
         idle_spin: Duration::from_micros(args.idle_spin_us),
         cleanup_interval: Duration::from_millis(args.cleanup_interval_ms.max(1)),
         workers: args.workers,
@@ -197,11 +214,12 @@ fn main() -> ExitCode {
     let mut remote_line = String::new();
     #[cfg(feature = "zenoh")]
     if !args.zenoh.is_empty() || args.zenoh_config.is_some() {
-        let zs = cliff_service::zenoh::ZenohSettings::new(
+        let mut zs = cliff_service::zenoh::ZenohSettings::new(
             &args.service,
             args.zenoh.clone(),
             args.zenoh_config.clone(),
         );
+        zs.max_message_bytes = args.zenoh_max_message_bytes;
         match daemon.serve_zenoh(&zs) {
             Ok(d) => remote_line = format!("; remote clients: {d}"),
             Err(e) => {

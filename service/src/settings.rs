@@ -82,8 +82,12 @@ pub struct Settings {
     pub chunk_positions: usize,
     /// Client processes served at once.
     pub max_clients: usize,
-    /// Requests one client may have in flight.
+    /// Requests one client may have in flight (a local client, and each remote session
+    /// over zenoh).
     pub max_active_requests: usize,
+    /// Remote (zenoh) sessions with requests in flight at once; the scheduler keeps room
+    /// for their requests beside the local clients'. Used with the feature `zenoh`.
+    pub max_remote_sessions: usize,
     /// How long the loop busy-polls after the last request before it sleeps.
     pub idle_spin: Duration,
     /// Threads predicting chunks of different requests at once (the serving thread is
@@ -106,6 +110,7 @@ impl Default for Settings {
             chunk_positions: DEFAULT_CHUNK_POSITIONS,
             max_clients: 16,
             max_active_requests: 2,
+            max_remote_sessions: 8,
             idle_spin: Duration::from_millis(1),
             cleanup_interval: Duration::from_secs(1),
             workers: available_cores(),
@@ -131,8 +136,11 @@ impl Settings {
         if self.workers == 0 || self.workers > 256 {
             return bad("workers must be between 1 and 256".into());
         }
-        if self.max_clients == 0 || self.max_active_requests == 0 {
-            return bad("max clients and max active requests must be at least 1".into());
+        if self.max_clients == 0 || self.max_active_requests == 0 || self.max_remote_sessions == 0 {
+            return bad(
+                "max clients, max active requests and max remote sessions must be at least 1"
+                    .into(),
+            );
         }
         let words = l.max_payload_words();
         if words > (1 << 28) {

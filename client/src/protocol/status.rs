@@ -50,6 +50,13 @@ pub enum Status {
     /// The sampling radius is above the daemon's limit for the map (the limit is sent in
     /// millimetres; the default limit is four grid steps of the map).
     RadiusTooLarge = 16,
+    /// The client already has as many requests in flight as the daemon allows one
+    /// client (`limit`); over zenoh, where the daemon counts them itself (locally,
+    /// iceoryx2 refuses the send). Retry once an answer has arrived.
+    Busy = 17,
+    /// The daemon serves as many remote sessions with requests in flight as it allows
+    /// (`limit`); retry later.
+    TooManySessions = 18,
 }
 
 impl Status {
@@ -74,6 +81,8 @@ impl Status {
             14 => ReloadFailed,
             15 => Internal,
             16 => RadiusTooLarge,
+            17 => Busy,
+            18 => TooManySessions,
             _ => return None,
         })
     }
@@ -104,6 +113,8 @@ impl Status {
             ReloadFailed => "reload-failed",
             Internal => "internal",
             RadiusTooLarge => "radius-too-large",
+            Busy => "busy",
+            TooManySessions => "too-many-sessions",
         }
     }
 }
@@ -302,11 +313,13 @@ mod tests {
             assert_eq!(Field::from_code(c) as u32, c);
         }
         assert_eq!(Field::from_code(21), Field::None);
-        for c in 0..17 {
+        for c in 0..19 {
             let s = Status::from_code(c).unwrap();
             assert_eq!(s.code(), c);
         }
-        assert_eq!(Status::from_code(17), None);
+        assert_eq!(Status::from_code(19), None);
+        let r = Rejection::over(Status::Busy, Field::None, 2);
+        assert_eq!(r.to_string(), "busy, limit 2");
         let r = Rejection::at(Status::NonFinite, Field::Time, 3, 7);
         assert_eq!(r.to_string(), "non-finite (time) at agent 3 row 7");
         let r = Rejection::over(Status::RadiusTooLarge, Field::Radius, 2000);

@@ -46,6 +46,16 @@ pub struct Daemon {
     pub(super) remote: Option<Remote>,
 }
 
+/// Scheduler slots kept for remote requests: every remote session's requests in flight
+/// (none without the feature `zenoh`).
+fn remote_slots(settings: &Settings) -> usize {
+    if cfg!(feature = "zenoh") {
+        settings.max_remote_sessions * settings.max_active_requests
+    } else {
+        0
+    }
+}
+
 /// A failure of iceoryx2 at start: what failed and its error.
 fn ipc(what: &str, e: impl std::fmt::Debug) -> StartError {
     StartError::Ipc(format!("{what}: {e:?}"))
@@ -167,8 +177,9 @@ impl Daemon {
             "iceoryx2 service ready"
         );
         // requests in progress at once: everything the clients can have in flight,
-        // within reason
-        let capacity = (clients * settings.max_active_requests).clamp(1, 64);
+        // within reason, and (with zenoh) everything remote sessions can have in flight
+        let capacity =
+            (clients * settings.max_active_requests).clamp(1, 64) + remote_slots(&settings);
         let scheduler = Scheduler::new(capacity, &l, settings.workers, settings.chunk_positions)
             .map_err(StartError::Settings)?;
         Ok(Daemon {
@@ -196,24 +207,37 @@ impl Daemon {
     }
 
     /// Also serve remote clients over zenoh: the same validation, limits and scheduler
-    /// as local clients (their requests take turns in the same rounds). zenoh runs on
-    /// its own threads and wakes the serving loop through the iceoryx2 request event;
-    /// returns what it serves on, for the ready line.
+    /// as local clients (their requests take turns in the same rounds), each remote
+    /// session with the local clients' [`Settings::max_active_requests`] in flight and
+    /// at most [`Settings::max_remote_sessions`] sessions at once (these replace the
+    /// values in `settings`). zenoh runs on its own threads and wakes the serving loop
+    /// through the iceoryx2 request event; returns what it serves on, for the ready
+    /// line.
     #[cfg(feature = "zenoh")]
     pub fn serve_zenoh(
         &mut self,
         settings: &crate::zenoh::ZenohSettings,
     ) -> Result<String, StartError> {
+        let mut settings = settings.clone();
+        settings.max_sessions = self.settings.max_remote_sessions;
+        settings.max_active = self.settings.max_active_requests;
         let waker = crate::zenoh::RequestWaker::open(
             &self.settings.service,
             self.settings.prefix.as_deref(),
         )?;
         let frontend =
-            crate::zenoh::ZenohFrontend::start(settings, &self.settings.limits, move || {
+            crate::zenoh::ZenohFrontend::start(&settings, &self.settings.limits, move || {
                 waker.wake()
             })?;
         let description = frontend.description().to_string();
-        info!(zid = %frontend.zid(), "serving remote clients on {description}");
+        let bound = frontend.memory_bound().bytes();
+        info!(
+            zid = %frontend.zid(),
+            max_remote_sessions = settings.max_sessions,
+            max_active_requests = settings.max_active,
+            memory_bound_mib = bound as f64 / (1 << 20) as f64,
+            "serving remote clients on {description}"
+        );
         self.remote = Some(Remote {
             frontend,
             buffers: Vec::new(),

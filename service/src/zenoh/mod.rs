@@ -4,22 +4,32 @@
 //!
 //! The serving loop sees no zenoh type: [`ZenohFrontend::try_next`] gives a decoded
 //! [`RemoteRequest`] (header and rows, see [`cliff_client::wire`]) and
-//! [`RemoteRequest::reply`] / [`RemoteRequest::reject`] answer it. Threads:
+//! [`RemoteRequest::reply`] / [`RemoteRequest::reject`] answer it. Parts:
+//! `config.rs` (the zenoh configuration, the largest message, [`MemoryBound`]),
+//! `sessions.rs` (remote sessions and their requests in flight, [`Sessions`]).
+//! Threads:
 //!
-//! * zenoh's own (network, rx, tx): the queryable's callback only moves the query into
-//!   a bounded channel of [`ZenohSettings::queue`] entries and wakes the serving loop;
-//!   when the channel is full it answers at once with [`Status::Internal`] (limit = the
-//!   queue length: "busy, retry") without touching the serving loop;
+//! * zenoh's own (network, rx, tx): the queryable's callback counts the query for its
+//!   session ([`Sessions`]: as many requests in flight as a local client, a cap on
+//!   sessions) and moves it into a channel with room for every admitted request, then
+//!   wakes the serving loop; a query beyond its session's limit, or from a session
+//!   beyond the cap, is refused there ([`Status::Busy`], [`Status::TooManySessions`])
+//!   without being queued or decoded past its request id;
 //! * the serving loop: decodes (size checks before anything is allocated, bounded by
 //!   the daemon's limits), predicts, encodes the response;
 //! * `cliffd-zenoh-reply`: sends the encoded responses, so that a remote link that is
 //!   slow or stuck (zenoh blocks a reply when the query asked for blocking congestion
-//!   control) never stalls the serving loop. When its queue is full the response is
-//!   dropped and that client sees its deadline pass.
+//!   control) never stalls the serving loop; a request stops counting as in flight
+//!   once its reply is handed to zenoh;
+//! * `cliffd-zenoh-refuse`: sends the refusals (at most [`REFUSED_QUEUE`] wait; beyond,
+//!   a refused query gets no reply).
 //!
 //! Safe defaults (see [`zenoh_config`]): peer mode, listening only on the given
 //! endpoints, multicast and gossip scouting off, received messages limited to what the
 //! largest allowed request needs.
+
+mod config;
+mod sessions;
 
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -27,7 +37,7 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::mpsc::{Receiver, SyncSender, TryRecvError, TrySendError, sync_channel};
 
 use cliff_client::protocol::{
-    Limits, Observation, PROTOCOL_VERSION, Rejection, RequestHeader, ResponseHeader, Status,
+    Field, Limits, Observation, PROTOCOL_VERSION, Rejection, RequestHeader, ResponseHeader, Status,
 };
 use cliff_client::wire;
 use iceoryx2::port::notifier::Notifier;
@@ -36,6 +46,12 @@ use tracing::{debug, warn};
 use zenoh::Wait;
 use zenoh::bytes::ZBytes;
 use zenoh::query::{Query, Queryable};
+
+pub use config::{
+    MESSAGE_SLACK, MemoryBound, REFUSED_QUERY_BYTES, REFUSED_QUEUE, TRANSPORTS_PER_SESSION,
+    default_max_message_bytes, max_request_bytes, max_response_bytes, max_rows, zenoh_config,
+};
+pub use sessions::{ANONYMOUS, Admitted, Refusal, Sessions, forget_bytes, session_of};
 
 use crate::settings::StartError;
 
@@ -50,19 +66,41 @@ pub struct ZenohSettings {
     pub config_file: Option<PathBuf>,
     /// The key expression of the queryable ([`key_expr_for`] of the service name).
     pub key: String,
-    /// Requests waiting for the serving loop at most; more are answered "busy".
-    pub queue: usize,
+    /// Remote sessions with requests in flight at once ([`Daemon::serve_zenoh`] takes
+    /// it from [`Settings::max_remote_sessions`]).
+    ///
+    /// [`Daemon::serve_zenoh`]: crate::Daemon::serve_zenoh
+    /// [`Settings::max_remote_sessions`]: crate::Settings::max_remote_sessions
+    pub max_sessions: usize,
+    /// Requests in flight per remote session ([`Daemon::serve_zenoh`] takes it from
+    /// [`Settings::max_active_requests`], the local clients' limit).
+    ///
+    /// [`Daemon::serve_zenoh`]: crate::Daemon::serve_zenoh
+    /// [`Settings::max_active_requests`]: crate::Settings::max_active_requests
+    pub max_active: usize,
+    /// The largest message accepted (`transport.link.rx.max_message_size`); `None`:
+    /// the largest request the limits allow plus [`MESSAGE_SLACK`], whatever the
+    /// configuration file says.
+    pub max_message_bytes: Option<usize>,
 }
 
 impl ZenohSettings {
     /// Settings for the iceoryx2 service `service` listening on `endpoints`.
     pub fn new(service: &str, endpoints: Vec<String>, config_file: Option<PathBuf>) -> Self {
+        let d = crate::Settings::default();
         ZenohSettings {
             endpoints,
             config_file,
             key: key_expr_for(service),
-            queue: 64,
+            max_sessions: d.max_remote_sessions,
+            max_active: d.max_active_requests,
+            max_message_bytes: None,
         }
+    }
+
+    /// Requests in flight over all remote sessions at most.
+    pub fn max_in_flight(&self) -> usize {
+        self.max_sessions * self.max_active
     }
 }
 
@@ -71,65 +109,6 @@ impl ZenohSettings {
 pub fn key_expr_for(service: &str) -> String {
     cliff_client::zenoh::key_expr_for(service)
 }
-
-/// The zenoh configuration of the daemon: the file (if any), then cliffd's safe values
-/// for what the file does not name: `mode` peer; `scouting.multicast` and
-/// `scouting.gossip` off; `transport.link.rx.max_message_size` the largest request the
-/// `limits` allow plus 4 KiB; `listen.endpoints` none. `endpoints`, when given,
-/// replace `listen.endpoints`. (A key counts as named when the file's text has it
-/// followed by a colon: [`cliff_client::zenoh::config_names`].)
-pub fn zenoh_config(s: &ZenohSettings, limits: &Limits) -> Result<zenoh::Config, String> {
-    let (mut config, text) = match &s.config_file {
-        Some(p) => {
-            let text = std::fs::read_to_string(p)
-                .map_err(|e| format!("zenoh config {}: {e}", p.display()))?;
-            let c = zenoh::Config::from_json5(&text)
-                .map_err(|e| format!("zenoh config {}: {e}", p.display()))?;
-            (c, text)
-        }
-        None => (zenoh::Config::default(), String::new()),
-    };
-    let named = |key: &str| cliff_client::zenoh::config_names(&text, key);
-    let mut set = |key: &str, value: String| {
-        config
-            .insert_json5(key, &value)
-            .map_err(|e| format!("zenoh config {key} = {value}: {e}"))
-    };
-    if !named("mode") {
-        set("mode", r#""peer""#.into())?;
-    }
-    if !named("multicast") {
-        set("scouting/multicast/enabled", "false".into())?;
-    }
-    if !named("gossip") {
-        set("scouting/gossip/enabled", "false".into())?;
-    }
-    if !named("max_message_size") {
-        let bytes = max_request_bytes(limits) + 4096;
-        set("transport/link/rx/max_message_size", bytes.to_string())?;
-    }
-    if !s.endpoints.is_empty() || !named("listen") {
-        let list = s
-            .endpoints
-            .iter()
-            .map(|e| format!("{e:?}"))
-            .collect::<Vec<_>>()
-            .join(",");
-        set("listen/endpoints", format!("[{list}]"))?;
-    }
-    Ok(config)
-}
-
-/// Rows per request the daemon decodes at most (every agent at the longest history).
-pub fn max_rows(limits: &Limits) -> usize {
-    limits.max_agents as usize * limits.max_history as usize
-}
-
-/// Bytes of the largest request the limits allow.
-pub fn max_request_bytes(limits: &Limits) -> usize {
-    wire::REQUEST_HEADER_BYTES + max_rows(limits) * wire::ROW_BYTES
-}
-
 /// Wakes the serving loop when it sleeps on the iceoryx2 request event: a notifier of
 /// that event on a node of its own (thread-safe ports, so zenoh's threads can use it).
 pub struct RequestWaker {
@@ -177,33 +156,41 @@ impl RequestWaker {
 #[derive(Debug, Default)]
 struct Counters {
     busy: AtomicU64,
+    too_many_sessions: AtomicU64,
     dropped_replies: AtomicU64,
 }
 
 /// What the frontend counted so far.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct FrontendStats {
-    /// Requests answered "busy" because the queue was full.
+    /// Requests answered [`Status::Busy`]: their session had its limit in flight.
     pub busy: u64,
-    /// Responses dropped because the reply thread was behind.
+    /// Requests answered [`Status::TooManySessions`]: the cap on sessions was reached.
+    pub too_many_sessions: u64,
+    /// Responses (or refusals) dropped because their thread was behind.
     pub dropped_replies: u64,
     /// Requests refused before decoding (bad size, bad version).
     pub malformed: u64,
 }
 
-/// The zenoh side of the daemon: a session and a queryable whose requests wait in a
-/// bounded channel for [`try_next`](Self::try_next).
+/// An encoded reply and the query it answers.
+type Outgoing = (Admitted, Vec<u8>);
+
+/// The zenoh side of the daemon: a session and a queryable whose admitted requests wait
+/// in a bounded channel for [`try_next`](Self::try_next).
 pub struct ZenohFrontend {
-    rx: Receiver<Query>,
-    replies: SyncSender<(Query, Vec<u8>)>,
+    rx: Receiver<Admitted>,
+    replies: SyncSender<Outgoing>,
     // the queryable before the session (drop order)
     _queryable: Queryable<()>,
     session: zenoh::Session,
+    sessions: Arc<Sessions>,
     max_rows: usize,
     rows: Vec<Observation>,
     counters: Arc<Counters>,
     malformed: u64,
     description: String,
+    bound: MemoryBound,
 }
 
 impl std::fmt::Debug for ZenohFrontend {
@@ -224,38 +211,73 @@ impl ZenohFrontend {
         wake: impl Fn() + Send + Sync + 'static,
     ) -> Result<ZenohFrontend, StartError> {
         let bad = |m: String| StartError::Settings(m);
-        if settings.queue == 0 {
+        if settings.max_sessions == 0 || settings.max_active == 0 {
             return Err(bad(
-                "the zenoh request queue needs at least one entry".into()
+                "remote sessions and requests in flight per session must be at least 1".into(),
+            ));
+        }
+        if settings.max_message_bytes == Some(0) {
+            return Err(bad(
+                "the largest zenoh message must be at least 1 byte".into()
             ));
         }
         let config = zenoh_config(settings, limits).map_err(bad)?;
+        let bound = MemoryBound::of(&config, limits, settings.max_sessions, settings.max_active)
+            .map_err(bad)?;
         let key = zenoh::key_expr::KeyExpr::try_from(settings.key.clone())
             .map_err(|e| bad(format!("zenoh key expression '{}': {e}", settings.key)))?;
         let session = zenoh::open(config)
             .wait()
             .map_err(|e| StartError::Zenoh(format!("cannot open the session: {e}")))?;
-        let (tx, rx) = sync_channel::<Query>(settings.queue);
-        let (replies, reply_rx) = sync_channel::<(Query, Vec<u8>)>(settings.queue);
-        std::thread::Builder::new()
-            .name("cliffd-zenoh-reply".into())
-            .spawn(move || send_replies(reply_rx))
-            .map_err(|e| StartError::Zenoh(format!("cannot start the reply thread: {e}")))?;
+        let in_flight = settings.max_in_flight();
+        // room for every admitted request: neither channel is ever full for them
+        let (tx, rx) = sync_channel::<Admitted>(in_flight);
+        let (replies, reply_rx) = sync_channel::<Outgoing>(in_flight);
+        let (refusals, refusal_rx) = sync_channel::<(Query, Vec<u8>)>(REFUSED_QUEUE);
+        let thread = |name: &str| std::thread::Builder::new().name(name.into());
+        let failed = |e: std::io::Error| StartError::Zenoh(format!("cannot start a thread: {e}"));
+        thread("cliffd-zenoh-reply")
+            .spawn(move || {
+                while let Ok((admitted, bytes)) = reply_rx.recv() {
+                    send_reply(admitted.query(), bytes);
+                    // dropping it ends the query and frees its place
+                }
+            })
+            .map_err(failed)?;
+        thread("cliffd-zenoh-refuse")
+            .spawn(move || {
+                while let Ok((query, bytes)) = refusal_rx.recv() {
+                    send_reply(&query, bytes);
+                }
+            })
+            .map_err(failed)?;
         let counters = Arc::new(Counters::default());
-        let queue = settings.queue;
-        let (busy_replies, busy_counters) = (replies.clone(), counters.clone());
+        let sessions = Arc::new(Sessions::new(settings.max_sessions, settings.max_active));
+        let (shared, callback_counters) = (sessions.clone(), counters.clone());
         let queryable = session
             .declare_queryable(key)
-            .callback(move |query: Query| match tx.try_send(query) {
-                Ok(()) => wake(),
-                Err(TrySendError::Full(query)) => {
-                    busy_counters.busy.fetch_add(1, Ordering::Relaxed);
-                    let bytes = busy_response(&query, queue);
+            .callback(move |query: Query| match Admitted::new(query, &shared) {
+                Ok(admitted) => match tx.try_send(admitted) {
+                    Ok(()) => wake(),
+                    // (the channel has room for every admitted request: only at
+                    // shutdown; dropping it ends the query unanswered)
+                    Err(TrySendError::Full(_) | TrySendError::Disconnected(_)) => {}
+                },
+                Err((query, why)) => {
+                    let counter = match why {
+                        Refusal::Busy => &callback_counters.busy,
+                        Refusal::TooManySessions => &callback_counters.too_many_sessions,
+                    };
+                    counter.fetch_add(1, Ordering::Relaxed);
+                    let refusal = refusal(query, why, &shared);
                     // never block zenoh's thread: without room the query is dropped
                     // (its client sees no reply)
-                    let _ = busy_replies.try_send((query, bytes));
+                    if refusals.try_send(refusal).is_err() {
+                        callback_counters
+                            .dropped_replies
+                            .fetch_add(1, Ordering::Relaxed);
+                    }
                 }
-                Err(TrySendError::Disconnected(_)) => {} // shutting down
             })
             .wait()
             .map_err(|e| StartError::Zenoh(format!("cannot declare the queryable: {e}")))?;
@@ -274,11 +296,13 @@ impl ZenohFrontend {
             replies,
             _queryable: queryable,
             session,
+            sessions,
             max_rows: rows,
             rows: Vec::with_capacity(rows),
             counters,
             malformed: 0,
             description,
+            bound,
         })
     }
 
@@ -292,10 +316,21 @@ impl ZenohFrontend {
         self.session.zid().to_string()
     }
 
+    /// What remote clients may cost this daemon in memory at most.
+    pub fn memory_bound(&self) -> &MemoryBound {
+        &self.bound
+    }
+
+    /// Remote requests in flight now (admitted, not yet answered).
+    pub fn in_flight(&self) -> usize {
+        self.sessions.in_flight()
+    }
+
     /// Counters so far.
     pub fn stats(&self) -> FrontendStats {
         FrontendStats {
             busy: self.counters.busy.load(Ordering::Relaxed),
+            too_many_sessions: self.counters.too_many_sessions.load(Ordering::Relaxed),
             dropped_replies: self.counters.dropped_replies.load(Ordering::Relaxed),
             malformed: self.malformed,
         }
@@ -308,20 +343,22 @@ impl ZenohFrontend {
     /// [`wire::encode_bad_version`]) and skipped. Never blocks.
     pub fn try_next(&mut self) -> Option<RemoteRequest<'_>> {
         loop {
-            let query = match self.rx.try_recv() {
+            let mut admitted = match self.rx.try_recv() {
                 Ok(q) => q,
                 Err(TryRecvError::Empty | TryRecvError::Disconnected) => return None,
             };
             let decoded = {
-                let bytes = query.payload().map(|p| p.to_bytes());
+                let bytes = admitted.query().payload().map(|p| p.to_bytes());
                 let bytes: &[u8] = bytes.as_deref().unwrap_or(&[]);
                 wire::decode_request(bytes, self.max_rows, &mut self.rows)
                     .map_err(|e| (e, wire::peek_request_id(bytes)))
             };
+            // the rows are copied out: zenoh's buffer can go
+            admitted.forget_payload();
             match decoded {
                 Ok(header) => {
                     return Some(RemoteRequest {
-                        query,
+                        admitted,
                         header,
                         rows: &self.rows,
                         replies: &self.replies,
@@ -344,7 +381,7 @@ impl ZenohFrontend {
                         e.rejection().write_to(&mut h);
                         wire::encode_response(&h, &[], &mut bytes);
                     }
-                    send_bytes(&self.replies, &self.counters, query, bytes);
+                    send_bytes(&self.replies, &self.counters, admitted, bytes);
                 }
             }
         }
@@ -354,10 +391,10 @@ impl ZenohFrontend {
 /// One decoded remote request; answer it with [`reply`](Self::reply) or
 /// [`reject`](Self::reject) (dropping it unanswered ends the query with no reply).
 pub struct RemoteRequest<'f> {
-    query: Query,
+    admitted: Admitted,
     header: RequestHeader,
     rows: &'f [Observation],
-    replies: &'f SyncSender<(Query, Vec<u8>)>,
+    replies: &'f SyncSender<Outgoing>,
     counters: &'f Arc<Counters>,
 }
 
@@ -376,18 +413,13 @@ impl RemoteRequest<'_> {
     /// says). Returns at once: the bytes go to the reply thread; `false` when its queue
     /// was full and the response was dropped.
     pub fn reply(self, h: &ResponseHeader, payload: &[u32]) -> bool {
-        send(self.replies, self.counters, self.query, h, payload)
+        send(self.replies, self.counters, self.admitted, h, payload)
     }
 
     /// Refuse the request with `rejection` (shape zero, no payload).
     pub fn reject(self, rejection: &Rejection) -> bool {
-        let mut h = ResponseHeader {
-            version: PROTOCOL_VERSION,
-            request_id: self.header.request_id,
-            ..ResponseHeader::default()
-        };
-        rejection.write_to(&mut h);
-        send(self.replies, self.counters, self.query, &h, &[])
+        let h = rejected(self.header.request_id, rejection);
+        send(self.replies, self.counters, self.admitted, &h, &[])
     }
 }
 
@@ -397,7 +429,7 @@ impl<'f> RemoteRequest<'f> {
     pub fn into_pending(self) -> PendingReply {
         PendingReply {
             request_id: self.header.request_id,
-            query: self.query,
+            admitted: self.admitted,
             replies: self.replies.clone(),
             counters: self.counters.clone(),
         }
@@ -406,50 +438,56 @@ impl<'f> RemoteRequest<'f> {
 
 /// A remote request waiting for its answer (see [`RemoteRequest::into_pending`]).
 pub struct PendingReply {
-    query: Query,
+    admitted: Admitted,
     request_id: u64,
-    replies: SyncSender<(Query, Vec<u8>)>,
+    replies: SyncSender<Outgoing>,
     counters: Arc<Counters>,
 }
 
 impl PendingReply {
     /// Send the response `h` with `payload`, as [`RemoteRequest::reply`].
     pub fn reply(self, h: &ResponseHeader, payload: &[u32]) -> bool {
-        send(&self.replies, &self.counters, self.query, h, payload)
+        send(&self.replies, &self.counters, self.admitted, h, payload)
     }
 
     /// Refuse the request with `rejection`, as [`RemoteRequest::reject`].
     pub fn reject(self, rejection: &Rejection) -> bool {
-        let mut h = ResponseHeader {
-            version: PROTOCOL_VERSION,
-            request_id: self.request_id,
-            ..ResponseHeader::default()
-        };
-        rejection.write_to(&mut h);
-        send(&self.replies, &self.counters, self.query, &h, &[])
+        let h = rejected(self.request_id, rejection);
+        send(&self.replies, &self.counters, self.admitted, &h, &[])
     }
 }
 
+/// The response header refusing request `request_id` with `rejection`.
+fn rejected(request_id: u64, rejection: &Rejection) -> ResponseHeader {
+    let mut h = ResponseHeader {
+        version: PROTOCOL_VERSION,
+        request_id,
+        ..ResponseHeader::default()
+    };
+    rejection.write_to(&mut h);
+    h
+}
+
 fn send(
-    replies: &SyncSender<(Query, Vec<u8>)>,
+    replies: &SyncSender<Outgoing>,
     counters: &Counters,
-    query: Query,
+    admitted: Admitted,
     h: &ResponseHeader,
     payload: &[u32],
 ) -> bool {
     // zenoh takes the buffer over (no copy), so each response has its own
     let mut bytes = Vec::new();
     wire::encode_response(h, payload, &mut bytes);
-    send_bytes(replies, counters, query, bytes)
+    send_bytes(replies, counters, admitted, bytes)
 }
 
 fn send_bytes(
-    replies: &SyncSender<(Query, Vec<u8>)>,
+    replies: &SyncSender<Outgoing>,
     counters: &Counters,
-    query: Query,
+    admitted: Admitted,
     bytes: Vec<u8>,
 ) -> bool {
-    match replies.try_send((query, bytes)) {
+    match replies.try_send((admitted, bytes)) {
         Ok(()) => true,
         Err(_) => {
             counters.dropped_replies.fetch_add(1, Ordering::Relaxed);
@@ -458,111 +496,50 @@ fn send_bytes(
     }
 }
 
-/// The "busy" answer for a query that found the queue full.
-fn busy_response(query: &Query, queue: usize) -> Vec<u8> {
-    let request_id = query
-        .payload()
-        .map(|p| wire::peek_request_id(&p.to_bytes()))
-        .unwrap_or(0);
-    let mut h = ResponseHeader {
-        version: PROTOCOL_VERSION,
-        request_id,
-        ..ResponseHeader::default()
-    };
-    Rejection {
-        status: Status::Internal,
-        agent: None,
-        row: None,
-        field: cliff_client::Field::None,
-        limit: queue.min(u32::MAX as usize) as u32,
+/// The answer to a query refused before it was queued ([`Status::Busy`] with the
+/// requests in flight per session in `limit`, or [`Status::TooManySessions`] with the
+/// cap on sessions), read from its request id only; the query lets go of its payload
+/// and attachment at once.
+fn refusal(mut query: Query, why: Refusal, sessions: &Sessions) -> (Query, Vec<u8>) {
+    // the request id is bytes 8 to 16: only the first 16 bytes are read
+    let mut head = [0u8; 16];
+    let mut got = 0;
+    if let Some(p) = query.payload() {
+        let mut reader = p.reader();
+        while got < head.len() {
+            match std::io::Read::read(&mut reader, &mut head[got..]) {
+                Ok(0) | Err(_) => break,
+                Ok(n) => got += n,
+            }
+        }
     }
-    .write_to(&mut h);
+    let request_id = wire::peek_request_id(&head[..got]);
+    sessions::forget_bytes(&mut query);
+    let (status, limit) = match why {
+        Refusal::Busy => (Status::Busy, sessions.max_active()),
+        Refusal::TooManySessions => (Status::TooManySessions, sessions.max_sessions()),
+    };
+    let h = rejected(
+        request_id,
+        &Rejection {
+            status,
+            agent: None,
+            row: None,
+            field: Field::None,
+            limit: limit.min(u32::MAX as usize) as u32,
+        },
+    );
     let mut bytes = Vec::new();
     wire::encode_response(&h, &[], &mut bytes);
-    bytes
+    (query, bytes)
 }
 
-/// The reply thread: one reply per query, then the query is dropped (which ends it).
-fn send_replies(rx: Receiver<(Query, Vec<u8>)>) {
-    while let Ok((query, bytes)) = rx.recv() {
-        if let Err(e) = query
-            .reply(query.key_expr().clone(), ZBytes::from(bytes))
-            .wait()
-        {
-            warn!("zenoh reply failed: {e}");
-        }
-        drop(query);
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    fn get(c: &zenoh::Config, key: &str) -> String {
-        c.get_json(key).unwrap()
-    }
-
-    #[test]
-    fn the_daemon_config_is_a_peer_listening_only_where_asked() {
-        let limits = Limits::default();
-        let s = ZenohSettings::new("cliff/predict", vec!["tcp/127.0.0.1:7447".into()], None);
-        assert_eq!(s.key, "cliff/predict");
-        let c = zenoh_config(&s, &limits).unwrap();
-        assert_eq!(get(&c, "mode"), r#""peer""#);
-        assert_eq!(get(&c, "scouting/multicast/enabled"), "false");
-        assert_eq!(get(&c, "scouting/gossip/enabled"), "false");
-        assert_eq!(get(&c, "listen/endpoints"), r#"["tcp/127.0.0.1:7447"]"#);
-        // 32 agents x 64 rows x 48 bytes + the 184-byte header + 4096
-        let want = 32 * 64 * 48 + 184 + 4096;
-        assert_eq!(
-            get(&c, "transport/link/rx/max_message_size"),
-            want.to_string()
-        );
-        // no endpoint and no file: no listener at all (a peer's default is every interface)
-        let c = zenoh_config(&ZenohSettings::new("cliff/predict", vec![], None), &limits).unwrap();
-        assert_eq!(get(&c, "listen/endpoints"), "[]");
-    }
-
-    #[test]
-    fn a_config_file_keeps_what_it_names_and_gets_safe_values_for_the_rest() {
-        let dir = std::env::temp_dir().join(format!("cliffd-zenoh-cfg-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
-        let f = dir.join("cliffd.json5");
-        std::fs::write(
-            &f,
-            r#"{ scouting: { gossip: { enabled: true } },
-                 listen: { endpoints: ["tcp/127.0.0.1:7999"] },
-                 transport: { link: { tls: { listen_certificate: "x.pem" } } } }"#,
-        )
-        .unwrap();
-        let limits = Limits::default();
-        let mut s = ZenohSettings::new("cliff/predict", vec![], Some(f.clone()));
-        let c = zenoh_config(&s, &limits).unwrap();
-        assert_eq!(get(&c, "scouting/gossip/enabled"), "true");
-        assert_eq!(get(&c, "scouting/multicast/enabled"), "false");
-        assert!(get(&c, "listen/endpoints").contains("7999"));
-        s.endpoints = vec!["tcp/127.0.0.1:7448".into()];
-        let c = zenoh_config(&s, &limits).unwrap();
-        assert_eq!(get(&c, "listen/endpoints"), r#"["tcp/127.0.0.1:7448"]"#);
-        // a file that does not name `listen` (only listen_certificate) listens nowhere
-        std::fs::write(
-            &f,
-            r#"{ transport: { link: { tls: { listen_certificate: "x.pem" } } } }"#,
-        )
-        .unwrap();
-        s.endpoints.clear();
-        let c = zenoh_config(&s, &limits).unwrap();
-        assert_eq!(get(&c, "listen/endpoints"), "[]");
-        std::fs::write(&f, "{ scouting: ").unwrap();
-        let e = zenoh_config(&s, &limits).unwrap_err();
-        assert!(e.contains("cliffd.json5"), "{e}");
-        let e = zenoh_config(
-            &ZenohSettings::new("x", vec![], Some(dir.join("none.json5"))),
-            &limits,
-        )
-        .unwrap_err();
-        assert!(e.contains("none.json5"), "{e}");
-        std::fs::remove_dir_all(&dir).unwrap();
+/// Send one reply to `query` (the caller drops it, which ends the query).
+fn send_reply(query: &Query, bytes: Vec<u8>) {
+    if let Err(e) = query
+        .reply(query.key_expr().clone(), ZBytes::from(bytes))
+        .wait()
+    {
+        warn!("zenoh reply failed: {e}");
     }
 }
