@@ -6,7 +6,8 @@
 //! (`lanes.rs`). The loop is compiled in a few flavours (const parameters): the paper's
 //! method alone, with scores, and with the speed kernel or coasting (with and without
 //! scores). The paper's flavour has none of the options' arithmetic or bookkeeping, so
-//! the options cost nothing when they are off.
+//! the options cost nothing when they are off. Each flavour has a baseline copy and an
+//! AVX2 + FMA copy, chosen at run time ([`Simd`](crate::math::Simd)).
 
 use glam::DVec2;
 use rand::SeedableRng;
@@ -17,6 +18,7 @@ use super::lanes::Extras;
 use super::options::Options;
 use super::{BatchMut, Method, Params, PredictError, preset};
 use crate::map::{CliffMap, Lookup};
+use crate::math::Simd;
 use crate::motion::State;
 
 /// Which neighbour-table path a [`Rollout`] takes for CLiFF-LHMP map lookups.
@@ -80,6 +82,8 @@ pub struct Rollout {
     rng: Xoshiro256PlusPlus,
     /// Buffers for [`Options::candidates`], grown once and reused.
     scratch: Candidates,
+    /// The instructions the lane loop runs on (available on this processor).
+    simd: Simd,
 }
 
 impl Rollout {
@@ -96,6 +100,7 @@ impl Rollout {
             tables: Tables::Build,
             rng: Xoshiro256PlusPlus::seed_from_u64(params.seed),
             scratch: Candidates::default(),
+            simd: Simd::active(),
         })
     }
 
@@ -126,6 +131,24 @@ impl Rollout {
     pub fn with_tables(mut self, tables: Tables) -> Self {
         self.tables = tables;
         self
+    }
+
+    /// The same rollout on the instructions `simd` ([`Simd::active`] by default, which
+    /// honours `CLIFF_SIMD`); a path the processor does not have falls back to
+    /// [`Simd::Baseline`]. The two paths differ in the last bits of the positions
+    /// (see [`Simd`]).
+    pub fn with_simd(mut self, simd: Simd) -> Self {
+        self.simd = if simd.available() {
+            simd
+        } else {
+            Simd::Baseline
+        };
+        self
+    }
+
+    /// The instructions the lane loop runs on.
+    pub fn simd(&self) -> Simd {
+        self.simd
     }
 
     /// The parameters it predicts with (a preset method resolved: never
@@ -191,6 +214,7 @@ impl Rollout {
             } else {
                 None
             },
+            simd: self.simd,
         };
         let lookup = match (params.method, scores.is_some(), self.tables) {
             // constant velocity looks the map up only for scores
