@@ -122,7 +122,10 @@ fn each_path_is_deterministic_and_the_paths_agree_but_for_the_last_bits() {
         assert!(alike >= 27, "{options:?}: {alike} of 30 people alike");
         assert!(worst < 1e-3, "{options:?}: worst difference {worst} m");
         // fused multiply-adds do change the last bits
-        assert!(same_bits < 30, "{options:?}: the two paths gave the same bits");
+        assert!(
+            same_bits < 30,
+            "{options:?}: the two paths gave the same bits"
+        );
     }
 }
 

@@ -39,8 +39,14 @@ pub enum Tables {
 /// [`predict_into`](super::predict_into) and
 /// [`predict_into_with`](super::predict_into_with) are one `Rollout` over all agents.
 /// Cutting the agents into consecutive chunks and predicting them in order with the
-/// same `Rollout` gives the same bytes (and scores), since the generator draws for the
-/// agents in order; a server uses this to interleave a large request with others.
+/// same `Rollout` gives the same bytes (and scores), since each agent draws from a
+/// generator of its own, seeded from the call's seed and the agent's place in the call;
+/// a server uses this to interleave a large request with others. Chunks may also run at
+/// once on other threads, each from a copy [`ahead`](Rollout::ahead) of the chunks
+/// before it ([`predict_agents_parallel`](Rollout::predict_agents_parallel)).
+///
+/// (Before this scheme one generator drew for all agents in order: calls with more
+/// than one agent gave other samples then; one-agent calls give the same.)
 ///
 /// ```
 /// use cliff::map::CliffMap;
@@ -79,7 +85,10 @@ pub struct Rollout {
     params: Params,
     options: Options,
     tables: Tables,
-    rng: Xoshiro256PlusPlus,
+    /// The call's seed; agent `i` of the call draws from [`agent_rng`]`(seed, i)`.
+    seed: u64,
+    /// Agents predicted so far (the index of the next agent in the call).
+    next_agent: u64,
     /// Buffers for [`Options::candidates`], grown once and reused.
     scratch: Candidates,
     /// The instructions the lane loop runs on (available on this processor).
@@ -98,7 +107,8 @@ impl Rollout {
             params: resolved,
             options,
             tables: Tables::Build,
-            rng: Xoshiro256PlusPlus::seed_from_u64(params.seed),
+            seed: params.seed,
+            next_agent: 0,
             scratch: Candidates::default(),
             simd: Simd::active(),
         })
@@ -123,7 +133,8 @@ impl Rollout {
         options.validate()?;
         self.asked = *params;
         (self.params, self.options) = preset::resolve(params, &options);
-        self.rng = Xoshiro256PlusPlus::seed_from_u64(params.seed);
+        self.seed = params.seed;
+        self.next_agent = 0;
         Ok(())
     }
 
@@ -203,7 +214,8 @@ impl Rollout {
             }
             return Ok(());
         }
-        let rng = &mut self.rng;
+        let first_agent = self.next_agent;
+        self.next_agent += agents.len() as u64;
         let extras = Extras {
             speed_beta: options.speed_beta,
             coast_steps: options.coast_steps(params.dt),
@@ -227,7 +239,8 @@ impl Rollout {
             agents,
             params,
             extras: &extras,
-            rng,
+            seed: self.seed,
+            first_agent,
             out,
             scores,
             scratch: &mut self.scratch,
@@ -239,6 +252,111 @@ impl Rollout {
         }
         Ok(())
     }
+}
+
+impl Rollout {
+    /// [`predict_agents`](Self::predict_agents) with the agents shared among rayon's
+    /// threads (all cores, unless the caller runs it in a smaller pool): the same bytes
+    /// and scores, since each agent draws from a generator of its own
+    /// ([`agent_rng`]). Small calls (under about a millisecond of work) run on the
+    /// calling thread. Each thread's share gets a rollout of its own (buffers for
+    /// candidates are allocated per share).
+    pub fn predict_agents_parallel(
+        &mut self,
+        map: &CliffMap,
+        agents: &[State],
+        out: BatchMut<'_>,
+        scores: Option<&mut [f32]>,
+    ) -> Result<(), PredictError> {
+        use rayon::prelude::*;
+        let steps = check_call(agents, &self.params, &out)?;
+        let k = self.params.k;
+        let work = agents.len() * k * steps.max(1) * self.options.cost_factor();
+        let threads = rayon::current_num_threads();
+        if threads < 2 || agents.len() < 2 || work < PARALLEL_MIN_POSITIONS {
+            return self.predict_agents(map, agents, out, scores);
+        }
+        if let Some(s) = &scores
+            && s.len() != out.lens.len()
+        {
+            // (the sequential call names the error)
+            return self.predict_agents(map, agents, out, scores);
+        }
+        // shares of a few agents, several per thread (agents differ in cost)
+        let per = agents.len().div_ceil(threads * 8).max(1);
+        let first = self.next_agent;
+        let BatchMut { positions, lens } = out;
+        let mut score_shares: Vec<Option<&mut [f32]>> = match scores {
+            Some(s) => s.chunks_mut(per * k).map(Some).collect(),
+            None => (0..agents.len().div_ceil(per)).map(|_| None).collect(),
+        };
+        let this = &*self;
+        agents
+            .par_chunks(per)
+            .zip(positions.par_chunks_mut(per * k * steps))
+            .zip(lens.par_chunks_mut(per * k))
+            .zip(score_shares.par_iter_mut())
+            .enumerate()
+            .try_for_each(|(i, (((agents, positions), lens), scores))| {
+                this.ahead((i * per) as u64).predict_agents(
+                    map,
+                    agents,
+                    BatchMut { positions, lens },
+                    scores.take(),
+                )
+            })?;
+        self.next_agent = first + agents.len() as u64;
+        Ok(())
+    }
+
+    /// A rollout of the same call for the agents `agents` after this one's next agent,
+    /// with buffers of its own: what a thread or worker predicting a later share of a
+    /// call starts from (the shares' results are those of one call). This one does not
+    /// move; [`skip`](Self::skip) moves it past the shares given away.
+    pub fn ahead(&self, agents: u64) -> Rollout {
+        Rollout {
+            asked: self.asked,
+            params: self.params,
+            options: self.options,
+            tables: self.tables,
+            seed: self.seed,
+            next_agent: self.next_agent + agents,
+            scratch: Candidates::default(),
+            simd: self.simd,
+        }
+    }
+
+    /// Move past `agents` agents predicted elsewhere (by [`ahead`](Self::ahead)
+    /// copies).
+    pub fn skip(&mut self, agents: u64) {
+        self.next_agent += agents;
+    }
+
+    /// The index in the call of the next agent this rollout predicts.
+    pub fn next_agent(&self) -> u64 {
+        self.next_agent
+    }
+}
+
+/// Predicted positions (at their cost factor) below which
+/// [`Rollout::predict_agents_parallel`] stays on the calling thread: handing work to
+/// another thread costs tens of microseconds, about a thousand positions' work.
+const PARALLEL_MIN_POSITIONS: usize = 20_000;
+
+/// The generator agent `index` of a call seeded with `seed` draws from: agent 0 from
+/// `Xoshiro256PlusPlus::seed_from_u64(seed)` (a one-agent call draws as it always
+/// has), agent `i > 0` from the seed mixed with `i` (splitmix64's finaliser). An agent's
+/// samples so depend on the seed, its state and its place in the call alone: chunks of
+/// a call, and agents predicted on other threads or daemon workers, give the bytes of
+/// one call on one thread.
+pub(super) fn agent_rng(seed: u64, index: u64) -> Xoshiro256PlusPlus {
+    if index == 0 {
+        return Xoshiro256PlusPlus::seed_from_u64(seed);
+    }
+    let mut z = seed ^ index.wrapping_mul(0x9E37_79B9_7F4A_7C15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    Xoshiro256PlusPlus::seed_from_u64(z ^ (z >> 31))
 }
 
 /// Check the parameters, the buffer shapes and the agents' states of a call; the
