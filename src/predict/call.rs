@@ -4,7 +4,7 @@
 
 use super::cvm::{cvm_score, roll_cvm};
 use super::lanes::{ANY, Extras, Lanes, PAPER, SPEED};
-use super::rollout::agent_rng;
+use super::seeds::agent_rng;
 use super::{BatchMut, Method, Params, Point};
 use crate::map::CliffMap;
 use crate::motion::State;

@@ -34,6 +34,7 @@ mod lanes;
 mod options;
 pub mod preset;
 mod rollout;
+mod seeds;
 mod with_options;
 
 use std::fmt;

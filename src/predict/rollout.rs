@@ -10,8 +10,6 @@
 //! AVX2 + FMA copy, chosen at run time ([`Simd`](crate::math::Simd)).
 
 use glam::DVec2;
-use rand::SeedableRng;
-use rand_xoshiro::Xoshiro256PlusPlus;
 
 use super::call::{Call, Candidates};
 use super::lanes::Extras;
@@ -85,7 +83,7 @@ pub struct Rollout {
     params: Params,
     options: Options,
     tables: Tables,
-    /// The call's seed; agent `i` of the call draws from [`agent_rng`]`(seed, i)`.
+    /// The call's seed; agent `i` of the call draws from `seeds::agent_rng(seed, i)`.
     seed: u64,
     /// Agents predicted so far (the index of the next agent in the call).
     next_agent: u64,
@@ -258,7 +256,7 @@ impl Rollout {
     /// [`predict_agents`](Self::predict_agents) with the agents shared among rayon's
     /// threads (all cores, unless the caller runs it in a smaller pool): the same bytes
     /// and scores, since each agent draws from a generator of its own
-    /// ([`agent_rng`]). Small calls (under about a millisecond of work) run on the
+    /// (`seeds::agent_rng`). Small calls (under about a millisecond of work) run on the
     /// calling thread. Each thread's share gets a rollout of its own (buffers for
     /// candidates are allocated per share).
     pub fn predict_agents_parallel(
@@ -342,22 +340,6 @@ impl Rollout {
 /// [`Rollout::predict_agents_parallel`] stays on the calling thread: handing work to
 /// another thread costs tens of microseconds, about a thousand positions' work.
 const PARALLEL_MIN_POSITIONS: usize = 20_000;
-
-/// The generator agent `index` of a call seeded with `seed` draws from: agent 0 from
-/// `Xoshiro256PlusPlus::seed_from_u64(seed)` (a one-agent call draws as it always
-/// has), agent `i > 0` from the seed mixed with `i` (splitmix64's finaliser). An agent's
-/// samples so depend on the seed, its state and its place in the call alone: chunks of
-/// a call, and agents predicted on other threads or daemon workers, give the bytes of
-/// one call on one thread.
-pub(super) fn agent_rng(seed: u64, index: u64) -> Xoshiro256PlusPlus {
-    if index == 0 {
-        return Xoshiro256PlusPlus::seed_from_u64(seed);
-    }
-    let mut z = seed ^ index.wrapping_mul(0x9E37_79B9_7F4A_7C15);
-    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-    Xoshiro256PlusPlus::seed_from_u64(z ^ (z >> 31))
-}
 
 /// Check the parameters, the buffer shapes and the agents' states of a call; the
 /// number of steps.

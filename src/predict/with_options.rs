@@ -43,7 +43,8 @@ pub fn predict_with(
 /// let (mut one, mut all) = (TrajectoryBatch::new(), TrajectoryBatch::new());
 /// predict_with(&map, &people, &params, &Options::default(), &mut one).unwrap();
 /// predict_batch(&map, &people, &params, &Options::default(), &mut all).unwrap();
-/// assert_eq!((one.positions(), one.lens()), (all.positions(), all.lens()));
+/// let bits = |b: &TrajectoryBatch| b.positions().iter().flatten().map(|v| v.to_bits()).collect::<Vec<_>>();
+/// assert_eq!((bits(&one), one.lens()), (bits(&all), all.lens()));
 /// ```
 pub fn predict_batch(
     map: &CliffMap,
