@@ -369,6 +369,16 @@ fn all_cores_give_the_bytes_and_scores_of_one_thread() {
             assert_eq!(one.scores(), &scores[..]);
         }
     }
+    // a horizon shorter than a step: no positions, on all cores too
+    let mut none = TrajectoryBatch::new();
+    let params = Params {
+        horizon: 0.1,
+        ..Params::default()
+    };
+    pool.install(|| predict_batch(&map, &many, &params, &Options::default(), &mut none))
+        .unwrap();
+    assert_eq!(none.shape(), (450, 20, 0));
+    assert!(none.lens().iter().all(|&l| l == 0));
 }
 
 #[test]

@@ -269,9 +269,9 @@ impl Rollout {
         use rayon::prelude::*;
         let steps = check_call(agents, &self.params, &out)?;
         let k = self.params.k;
-        let work = agents.len() * k * steps.max(1) * self.options.cost_factor();
+        let work = (agents.len() * k * steps).saturating_mul(self.options.cost_factor());
         let threads = rayon::current_num_threads();
-        if threads < 2 || agents.len() < 2 || work < PARALLEL_MIN_POSITIONS {
+        if threads < 2 || agents.len() < 2 || steps == 0 || work < PARALLEL_MIN_POSITIONS {
             return self.predict_agents(map, agents, out, scores);
         }
         if let Some(s) = &scores
