@@ -6,7 +6,9 @@ variant on the same people with the same seeds, and prints a Markdown table: mea
 and top-1 ADE (m) at 5, 20 and 50 s, and the ratio of each variant's mean ADE to the
 paper's over the people both predict at that horizon (paired, lower is better).
 
-    python3 benches/beyond.py [--cliff target/release/cliff] [--seeds 10] [--out DIR]
+    python3 benches/beyond.py [--cliff target/release/cliff] [--seeds 10] [--out DIR] [--only 0,1]
+
+(--only: the rows to run, by their index in VARIANTS; the paper's row 0 is always run.)
 
 Builds the two maps it needs in --out first (about a minute on two cores): the all-day
 map with its speed prior (`cliff map build` defaults) and a time-of-day set (1 h
@@ -70,7 +72,9 @@ def main():
     ap.add_argument("--cliff", default=os.path.join(ROOT, "target", "release", "cliff"))
     ap.add_argument("--seeds", type=int, default=10)
     ap.add_argument("--out", default="/tmp/cliff-beyond")
+    ap.add_argument("--only", default="", help="comma-separated row indices (the paper's row 0 is always run)")
     a = ap.parse_args()
+    only = {0} | {int(i) for i in a.only.split(",") if i.strip()} if a.only else None
     os.makedirs(a.out, exist_ok=True)
     train = sorted(glob.glob(os.path.join(DATA, "train", "*.csv")))
     dev = sorted(glob.glob(os.path.join(DATA, "dev", "*.csv")))
@@ -82,6 +86,8 @@ def main():
         run(base + ["--slice", "1h", "--clock-offset", "9h", "--out", maps["set"]])
     results = []
     for i, (label, m, method, extra) in enumerate(VARIANTS):
+        if only is not None and i not in only:
+            continue
         d = os.path.join(a.out, f"v{i}")
         run([a.cliff, "eval", "--map", maps[m], "--tracks", *dev, "--format", "atc", "--protocol", "seconds",
              "--dt", "1", "--horizon", "50", "--radius", "1", "--seeds", str(a.seeds), "--methods", method,

@@ -14,16 +14,23 @@
 //! (speed_beta 1), coasting 4 s, follow 4, scores and the speed kernel, the three of
 //! scores, speed kernel and coasting, and the `improved` preset's options.
 //!
+//! Every case runs on the baseline instructions and, where the processor has them, on
+//! AVX2 + FMA (`cliff::math::Simd`; the `_avx2` rows), alternating in the same rounds:
+//! `vs default` is the ratio to the baseline default case, `vs path's` the ratio to the
+//! default case on the same path.
+//!
 //! Run: `cargo bench --bench options_cost [-- ROUNDS [CALLS_PER_BATCH]] [CASE ...]`
 //! (default 200 rounds of 50 calls; the cases named, beside the default one, or all:
-//! scores, speed, coast, follow, speed_scores, all, improved).
+//! scores, speed, coast, follow, speed_scores, all, improved; `baseline` runs the
+//! baseline path alone).
 
 use std::hint::black_box;
 use std::time::Instant;
 
 use cliff::map::CliffMap;
+use cliff::math::Simd;
 use cliff::motion::State;
-use cliff::predict::{Options, Params, TrajectoryBatch, predict_with};
+use cliff::predict::{Options, Params, Rollout, TrajectoryBatch};
 
 mod common;
 use common::{atc_person, atc_set, thor1_person};
@@ -44,10 +51,17 @@ fn main() {
     let rounds = nums.first().copied().unwrap_or(200);
     let calls = nums.get(1).copied().unwrap_or(50);
     // other words name the option cases to run (beside the default one)
-    let only: Vec<String> = std::env::args()
+    let mut only: Vec<String> = std::env::args()
         .skip(1)
         .filter(|a| !a.starts_with('-') && a.parse::<usize>().is_err())
         .collect();
+    let baseline_only = only.iter().any(|o| o == "baseline");
+    only.retain(|o| o != "baseline");
+    let paths: Vec<Simd> = if baseline_only || !Simd::Avx2Fma.available() {
+        vec![Simd::Baseline]
+    } else {
+        vec![Simd::Baseline, Simd::Avx2Fma]
+    };
 
     let options: Vec<(&str, Options)> = [
         ("default", Options::default()),
@@ -119,8 +133,8 @@ fn main() {
 
     println!("{rounds} rounds of {calls} calls per case, alternating");
     println!(
-        "{:<36} {:>12} {:>12} {:>10}",
-        "case", "median us", "vs default", "positions"
+        "{:<42} {:>10} {:>11} {:>11} {:>10}",
+        "case", "median us", "vs default", "vs path's", "positions"
     );
     for (name, map, case, params) in [
         (
@@ -131,9 +145,17 @@ fn main() {
         ),
         ("atc_person_k20_50steps", &atc.map, &atc.case, atc.params),
     ] {
-        let cases: Vec<(String, Case<'_>)> = options
+        let cases: Vec<(String, Case<'_>)> = paths
             .iter()
-            .map(|(label, opts)| (format!("{name}_{label}"), (map, &case.start, params, *opts)))
+            .flat_map(|&simd| {
+                options.iter().map(move |(label, opts)| {
+                    let path = if simd == Simd::Baseline { "" } else { "_avx2" };
+                    (
+                        format!("{name}_{label}{path}"),
+                        (map, &case.start, params, *opts, simd),
+                    )
+                })
+            })
             .collect();
         alternate(rounds, calls, &cases);
     }
@@ -149,7 +171,12 @@ fn main() {
             ("atc_person_k20_50steps_set_all_day", set.all_day().as_ref()),
             ("atc_person_k20_50steps_set_slice", slice.as_ref()),
         ]
-        .map(|(label, map)| (label.to_string(), (map, &atc.case.start, atc.params, o)));
+        .map(|(label, map)| {
+            (
+                label.to_string(),
+                (map, &atc.case.start, atc.params, o, Simd::active()),
+            )
+        });
         // (the slice case picks its map through the set in every call)
         alternate_with(rounds, calls, &cases, |i, _| match i {
             2 => set.at(black_box(atc.case.start.time)),
@@ -158,8 +185,8 @@ fn main() {
     }
 }
 
-/// One case: the map, the person, the parameters and the options.
-type Case<'a> = (&'a CliffMap, &'a State, Params, Options);
+/// One case: the map, the person, the parameters, the options and the path.
+type Case<'a> = (&'a CliffMap, &'a State, Params, Options, Simd);
 
 /// Run the cases alternately and print per case the median time per call, the median
 /// ratio to the first case's time in the same round, and the positions per call.
@@ -175,35 +202,54 @@ fn alternate_with<'a>(
     map_of: impl Fn(usize, u64) -> &'a CliffMap,
 ) {
     let mut batch = TrajectoryBatch::new();
+    let mut scores = Vec::new();
     let mut seed = 0u64;
     let mut times = vec![Vec::with_capacity(rounds); cases.len()];
     // positions predicted per call (samples end where the map has no data)
     let mut positions = vec![0u64; cases.len()];
     for _ in 0..rounds {
-        for (i, (_, (_, start, params, opts))) in cases.iter().enumerate() {
+        for (i, (_, (_, start, params, opts, simd))) in cases.iter().enumerate() {
+            batch.reshape(1, params.k, params.steps());
+            scores.resize(params.k, 0.0f32);
             let t0 = Instant::now();
             for _ in 0..calls {
                 seed += 1;
-                predict_with(
-                    map_of(i, seed),
-                    black_box(std::slice::from_ref(*start)),
-                    &Params { seed, ..*params },
-                    opts,
-                    &mut batch,
-                )
-                .unwrap();
+                // what `predict_with` does, on the case's path
+                let mut rollout = Rollout::new(&Params { seed, ..*params })
+                    .unwrap()
+                    .with_options(*opts)
+                    .unwrap()
+                    .with_simd(*simd);
+                let scored = rollout.options().scores;
+                rollout
+                    .predict_agents(
+                        map_of(i, seed),
+                        black_box(std::slice::from_ref(*start)),
+                        batch.as_mut(),
+                        scored.then_some(&mut scores[..]),
+                    )
+                    .unwrap();
                 positions[i] += batch.lens().iter().map(|&l| l as u64).sum::<u64>();
             }
             times[i].push(t0.elapsed().as_secs_f64() * 1e6 / calls as f64);
         }
     }
+    // each path's default case: the first case of that path
+    let path_default = |i: usize| {
+        let simd = cases[i].1.4;
+        cases.iter().position(|c| c.1.4 == simd).unwrap()
+    };
     for (i, (label, _)) in cases.iter().enumerate() {
-        let mut ratios: Vec<f64> = times[i].iter().zip(&times[0]).map(|(t, d)| t / d).collect();
+        let ratio_to = |d: usize| {
+            let mut r: Vec<f64> = times[i].iter().zip(&times[d]).map(|(t, d)| t / d).collect();
+            median(&mut r)
+        };
         println!(
-            "{:<36} {:>12.2} {:>12.3} {:>10.1}",
+            "{:<42} {:>10.2} {:>11.3} {:>11.3} {:>10.1}",
             label,
             median(&mut times[i].clone()),
-            median(&mut ratios),
+            ratio_to(0),
+            ratio_to(path_default(i)),
             positions[i] as f64 / (rounds * calls) as f64
         );
     }

@@ -262,3 +262,148 @@ fn a_score_buffer_of_the_wrong_size_is_refused() {
             .is_err()
     );
 }
+
+/// The bits of a batch's positions.
+fn bits(b: &TrajectoryBatch) -> Vec<u32> {
+    b.positions()
+        .iter()
+        .flatten()
+        .map(|v| v.to_bits())
+        .collect()
+}
+
+#[test]
+fn all_cores_give_the_bytes_and_scores_of_one_thread() {
+    let (map, agents) = thor_agents();
+    // 9 people repeated to 450: enough work to be shared among the threads
+    let many: Vec<State> = agents.iter().cycle().take(450).copied().collect();
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(3)
+        .build()
+        .unwrap();
+    for (params, options) in [
+        (
+            Params {
+                k: 20,
+                seed: 9,
+                ..Params::default()
+            },
+            Options::default(),
+        ),
+        (
+            Params {
+                method: Method::Improved,
+                k: 7,
+                seed: 2,
+                ..Params::default()
+            },
+            Options::default(),
+        ),
+        (
+            Params {
+                k: 3,
+                seed: 4,
+                ..Params::default()
+            },
+            Options {
+                speed_beta: 1.0,
+                coast: 2.0,
+                scores: true,
+                ..Options::default()
+            },
+        ),
+    ] {
+        let mut one = TrajectoryBatch::new();
+        predict_with(&map, &many, &params, &options, &mut one).unwrap();
+        let mut all = TrajectoryBatch::new();
+        pool.install(|| predict_batch(&map, &many, &params, &options, &mut all))
+            .unwrap();
+        assert_eq!(bits(&one), bits(&all), "{params:?} {options:?}");
+        assert_eq!(one.lens(), all.lens());
+        assert_eq!(one.scores(), all.scores());
+        // a repeated person draws anew at every place in the call
+        assert_ne!(one.sample(0, 0), one.sample(9, 0));
+        // and the slices flavour, started after other agents of the same rollout
+        let mut split = TrajectoryBatch::new();
+        split.reshape(many.len(), params.k, params.steps());
+        let mut scores = vec![0.0f32; many.len() * params.k];
+        let cut = 100;
+        let per = params.k * params.steps();
+        let out = split.as_mut();
+        let (p1, p2) = out.positions.split_at_mut(cut * per);
+        let (l1, l2) = out.lens.split_at_mut(cut * params.k);
+        let (s1, s2) = scores.split_at_mut(cut * params.k);
+        let mut rollout = Rollout::new(&params)
+            .unwrap()
+            .with_options(options)
+            .unwrap();
+        // the later share first, from a copy ahead of the first share
+        pool.install(|| {
+            rollout
+                .ahead(cut as u64)
+                .predict_agents_parallel(
+                    &map,
+                    &many[cut..],
+                    BatchMut {
+                        positions: p2,
+                        lens: l2,
+                    },
+                    Some(s2),
+                )
+                .unwrap()
+        });
+        rollout
+            .predict_agents(
+                &map,
+                &many[..cut],
+                BatchMut {
+                    positions: p1,
+                    lens: l1,
+                },
+                Some(s1),
+            )
+            .unwrap();
+        assert_eq!(rollout.next_agent(), cut as u64);
+        assert_eq!(bits(&one), bits(&split), "{params:?} {options:?} in shares");
+        if !one.scores().is_empty() {
+            assert_eq!(one.scores(), &scores[..]);
+        }
+    }
+    // a horizon shorter than a step: no positions, on all cores too
+    let mut none = TrajectoryBatch::new();
+    let params = Params {
+        horizon: 0.1,
+        ..Params::default()
+    };
+    pool.install(|| predict_batch(&map, &many, &params, &Options::default(), &mut none))
+        .unwrap();
+    assert_eq!(none.shape(), (450, 20, 0));
+    assert!(none.lens().iter().all(|&l| l == 0));
+}
+
+#[test]
+fn a_one_person_call_is_the_first_person_of_a_call() {
+    let (map, agents) = thor_agents();
+    let params = Params {
+        seed: 77,
+        ..Params::default()
+    };
+    let mut alone = TrajectoryBatch::new();
+    predict(&map, &agents[..1], &params, &mut alone).unwrap();
+    let mut many = TrajectoryBatch::new();
+    predict(&map, &agents, &params, &mut many).unwrap();
+    let sample_bits = |b: &TrajectoryBatch, a: usize, s: usize| {
+        b.full_sample(a, s)
+            .iter()
+            .flatten()
+            .map(|v| v.to_bits())
+            .collect::<Vec<_>>()
+    };
+    for s in 0..params.k {
+        assert_eq!(sample_bits(&alone, 0, s), sample_bits(&many, 0, s));
+    }
+    // the second person of the call is not the first one of a call of its own
+    let mut second = TrajectoryBatch::new();
+    predict(&map, &agents[1..2], &params, &mut second).unwrap();
+    assert_ne!(sample_bits(&second, 0, 0), sample_bits(&many, 1, 0));
+}

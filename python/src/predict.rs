@@ -4,7 +4,7 @@ use std::sync::Arc;
 
 use cliff::map::CliffMap;
 use cliff::predict::preset::cost_factor;
-use cliff::predict::{BatchMut, predict_into_with};
+use cliff::predict::{BatchMut, predict_batch_into};
 use cliff_client::protocol::{
     DecodeScratch, Limits, MAX_HISTORY, decode_request, scores_in_response,
 };
@@ -54,8 +54,9 @@ predict_fn! {
     ///     each sample's end), ``lengths`` (int64, shape (people, k)) and, with
     ///     ``scores=True``, ``scores`` (float32, shape (people, k)).
     ///
-    /// Each person starts at its last row. Thousands of people in one call are fine;
-    /// the GIL is released while Rust predicts.
+    /// Each person starts at its last row. Thousands of people in one call are fine:
+    /// the GIL is released while Rust predicts, on all cores (each person draws from a
+    /// generator of its own, so the numbers do not depend on the number of cores).
     ///
     /// Example:
     ///     >>> import numpy as np, cliff_lhmp
@@ -167,8 +168,9 @@ pub fn predict_local(
             positions: as_points(pos_flat),
             lens: lens_flat,
         };
-        // the predictor fills every point (NaN past a sample's end)
-        predict_into_with(
+        // the predictor fills every point (NaN past a sample's end), on all cores (the
+        // same numbers as on one: each person draws from a generator of its own)
+        predict_batch_into(
             &map,
             scratch.states(),
             &d.params,

@@ -101,8 +101,8 @@ struct Args {
     #[arg(long, default_value_t = 1000)]
     idle_spin_us: u64,
 
-    /// Threads that predict chunks of different requests (from several clients) in
-    /// parallel; the serving thread is one of them. Default: the number of cores.
+    /// Threads that predict chunks in parallel (of different requests, or of one large
+    /// request alone); the serving thread is one of them. Default: the number of cores.
     /// 1: the serving thread does everything (lowest CPU use).
     #[arg(long, default_value_t = available_cores())]
     workers: usize,

@@ -11,9 +11,13 @@
 //! at most one round of chunks (about 0.2 ms of work per worker), however large the
 //! other requests are, and large requests share the daemon evenly.
 //!
-//! Chunks of one task run in order, so the generator draws exactly as in one call:
+//! Each agent draws from a generator of its own (seeded from the request's seed and
+//! the agent's place in it), so chunks give the bytes of one call whatever their order:
 //! the same request and seed give the same bytes (and scores) as
-//! [`cliff::predict::predict_with`].
+//! [`cliff::predict::predict_with`]. When a round holds fewer tasks than workers, a task
+//! with agents left takes several chunks at once, one per idle worker (each with a
+//! rollout of its own, positioned at its first agent): one large request uses every
+//! worker.
 //!
 //! A chunk's size counts positions at their cost: a method that costs a multiple of
 //! CLiFF-LHMP per position ([`cost_factor`]) gets chunks that many times smaller.
@@ -60,6 +64,10 @@ struct Task {
     /// Times the paper's work per position ([`cost_factor`]).
     factor: usize,
     rollout: Rollout,
+    /// Rollouts for the task's further chunks of a round (one per other worker).
+    helpers: Vec<Rollout>,
+    /// Agents the helpers predicted in the last round, for `rollout` to skip.
+    skip: usize,
     agents: usize,
     next: usize,
     /// Agents per chunk.
@@ -73,9 +81,9 @@ pub(crate) struct Slot<O> {
     pub header: RequestHeader,
     /// The decoded agents.
     pub scratch: DecodeScratch,
-    /// The rollout of the slot's last request, restarted for the next one (its
-    /// buffers, e.g. for candidates, are grown once).
-    spare: Option<Rollout>,
+    /// The rollout of the slot's last request and its helpers, restarted for the next
+    /// one (their buffers, e.g. for candidates, are grown once).
+    spare: Option<(Rollout, Vec<Rollout>)>,
     task: Option<Task>,
     output: Option<O>,
 }
@@ -102,6 +110,10 @@ pub(crate) struct Scheduler<O> {
     round: Vec<usize>,
     done: Vec<usize>,
     jobs: Vec<Chunk<'static>>,
+    /// Chunks per task in the round being run (parallel to `round`).
+    shares: Vec<usize>,
+    /// Slots whose chunk failed in the round being run.
+    failed: Vec<usize>,
     pool: Option<rayon::ThreadPool>,
     workers: usize,
     chunk_positions: usize,
@@ -142,7 +154,9 @@ impl<O: Output> Scheduler<O> {
             queue: VecDeque::with_capacity(capacity),
             round: Vec::with_capacity(capacity),
             done: Vec::with_capacity(capacity),
-            jobs: Vec::with_capacity(capacity),
+            jobs: Vec::with_capacity(capacity * workers.max(1)),
+            shares: Vec::with_capacity(capacity),
+            failed: Vec::with_capacity(capacity * workers.max(1)),
             pool,
             workers,
             chunk_positions,
@@ -196,11 +210,19 @@ impl<O: Output> Scheduler<O> {
         let chunk = (self.chunk_positions / per_agent.saturating_mul(weight).max(1)).max(1);
         // Decoding checked the parameters, so the rollout cannot fail; if it did, the
         // request is answered as an internal error.
-        let rollout = match slot.spare.take() {
-            Some(mut r) => r.restart(params, *options).map(|()| r),
-            None => Rollout::new(params)
+        let fresh = || {
+            Rollout::new(params)
                 .and_then(|r| r.with_options(*options))
-                .map(|r| r.with_tables(Tables::CachedOnly)),
+                .map(|r| r.with_tables(Tables::CachedOnly))
+        };
+        let (rollout, helpers) = match slot.spare.take() {
+            Some((mut r, helpers)) => (r.restart(params, *options).map(|()| r), helpers),
+            None => (
+                fresh(),
+                (1..self.workers)
+                    .filter_map(|_| fresh().ok())
+                    .collect::<Vec<_>>(),
+            ),
         };
         let (rollout, ok) = match rollout {
             Ok(r) => (r, true),
@@ -218,6 +240,8 @@ impl<O: Output> Scheduler<O> {
             options: *options,
             factor,
             rollout,
+            helpers,
+            skip: 0,
             agents,
             next: 0,
             chunk,
@@ -254,18 +278,43 @@ impl<O: Output> Scheduler<O> {
         if self.round.is_empty() {
             return 0;
         }
+        // Fewer tasks than workers: tasks with agents left take a chunk per idle worker.
+        let mut idle = self.workers.saturating_sub(self.round.len());
+        self.shares.clear();
+        for &i in &self.round {
+            let t = self.slots[i]
+                .task
+                .as_ref()
+                .expect("round slots hold a task");
+            let chunks = (t.agents - t.next).div_ceil(t.chunk.max(1)).max(1);
+            let extra = idle.min(chunks - 1).min(t.helpers.len());
+            idle -= extra;
+            self.shares.push(1 + extra);
+            if extra > 0 {
+                // the extra chunks' positions, at their cost
+                let n = (t.chunk * extra).min(t.agents - t.next - t.chunk.min(t.agents - t.next));
+                positions += n * t.params.k * t.params.steps() * t.factor;
+            }
+        }
         // Collect the round's chunks (disjoint slots: one mutable borrow each).
         let mut jobs = recycle(std::mem::take(&mut self.jobs));
         {
-            let round = &self.round;
+            let (round, shares) = (&self.round, &self.shares);
             for (i, slot) in self.slots.iter_mut().enumerate() {
-                if !round.contains(&i) {
+                let Some(r) = round.iter().position(|&j| j == i) else {
                     continue;
-                }
+                };
                 let (Some(task), Some(out)) = (slot.task.as_mut(), slot.output.as_mut()) else {
                     continue;
                 };
-                jobs.push(Chunk::new(task, slot.scratch.states(), out.words()));
+                Chunk::split(
+                    task,
+                    slot.scratch.states(),
+                    out.words(),
+                    i,
+                    shares[r],
+                    &mut jobs,
+                );
             }
         }
         match &self.pool {
@@ -275,7 +324,21 @@ impl<O: Output> Scheduler<O> {
             }
             _ => jobs.iter_mut().for_each(|j| j.run()),
         }
+        self.failed.clear();
+        self.failed
+            .extend(jobs.iter().filter(|j| !j.ok).map(|j| j.slot));
         self.jobs = recycle(jobs);
+        for &i in &self.failed {
+            if let Some(t) = self.slots[i].task.as_mut() {
+                t.ok = false;
+            }
+        }
+        // the tasks' rollouts move past the agents their helpers predicted
+        for &i in &self.round {
+            if let Some(t) = self.slots[i].task.as_mut() {
+                t.rollout.skip(std::mem::take(&mut t.skip) as u64);
+            }
+        }
         // Requeue what has agents left; collect what is done.
         for &i in &self.round {
             let t = self.slots[i]
@@ -310,7 +373,7 @@ impl<O: Output> Scheduler<O> {
                 ok: task.ok,
                 others,
             });
-            slot.spare = Some(task.rollout);
+            slot.spare = Some((task.rollout, task.helpers));
             self.free.push(i);
         }
     }
@@ -325,33 +388,80 @@ struct Chunk<'a> {
     lens: &'a mut [u32],
     /// The chunk's scores (`None` when the request asked for none).
     scores: Option<&'a mut [f32]>,
-    next: &'a mut usize,
-    ok: &'a mut bool,
+    /// The task's slot.
+    slot: usize,
+    /// False once the prediction failed.
+    ok: bool,
 }
 
 impl<'a> Chunk<'a> {
-    fn new(task: &'a mut Task, states: &'a [State], words: &'a mut [u32]) -> Self {
+    /// The task's next `count` chunks (at most one more than it has helpers), pushed to
+    /// `jobs`: the first on the task's rollout, the others on its helpers, restarted
+    /// and moved to their first agent. The task's next agent moves past them all.
+    fn split(
+        task: &'a mut Task,
+        states: &'a [State],
+        words: &'a mut [u32],
+        slot: usize,
+        count: usize,
+        jobs: &mut Vec<Chunk<'a>>,
+    ) {
         let (k, steps) = (task.params.k, task.params.steps());
-        let n = task.chunk.min(task.agents - task.next);
-        let (a, b) = (task.next, task.next + n);
         let samples = task.agents * k;
         let (pos_words, rest) = words.split_at_mut(samples * steps * 2);
         let (lens, score_words) = rest.split_at_mut(samples);
         let positions: &mut [Point] = bytemuck::cast_slice_mut(pos_words);
-        let scores = task.options.scores.then(|| {
-            let all: &mut [f32] = bytemuck::cast_slice_mut(score_words);
-            &mut all[a * k..b * k]
-        });
-        Chunk {
-            map: &task.map,
-            rollout: &mut task.rollout,
-            states: &states[a..b],
-            positions: &mut positions[a * k * steps..b * k * steps],
-            lens: &mut lens[a * k..b * k],
-            scores,
-            next: &mut task.next,
-            ok: &mut task.ok,
+        let all_scores: Option<&mut [f32]> = task
+            .options
+            .scores
+            .then(|| bytemuck::cast_slice_mut(score_words));
+        // the slices from the task's next agent on
+        let a = task.next;
+        let (_, mut positions) = positions.split_at_mut(a * k * steps);
+        let (_, mut lens) = lens.split_at_mut(a * k);
+        let mut scores = all_scores.map(|s| s.split_at_mut(a * k).1);
+        let mut states = &states[a..task.agents];
+        let (params, options) = (task.params, task.options);
+        let mut helped = 0;
+        let rollouts = std::iter::once(&mut task.rollout).chain(task.helpers.iter_mut());
+        for (j, rollout) in rollouts.take(count).enumerate() {
+            let n = task.chunk.min(states.len());
+            if n == 0 {
+                break;
+            }
+            if j > 0 {
+                // a helper: the same call, from this chunk's first agent on
+                if rollout.restart(&params, options).is_err() {
+                    break;
+                }
+                rollout.skip(task.next as u64);
+                helped += n;
+            }
+            let (p, rest_p) = positions.split_at_mut(n * k * steps);
+            let (l, rest_l) = lens.split_at_mut(n * k);
+            let sc = match scores.take() {
+                Some(s) => {
+                    let (c, rest) = s.split_at_mut(n * k);
+                    scores = Some(rest);
+                    Some(c)
+                }
+                None => None,
+            };
+            let (st, rest_st) = states.split_at(n);
+            jobs.push(Chunk {
+                map: &task.map,
+                rollout,
+                states: st,
+                positions: p,
+                lens: l,
+                scores: sc,
+                slot,
+                ok: true,
+            });
+            (positions, lens, states) = (rest_p, rest_l, rest_st);
+            task.next += n;
         }
+        task.skip = helped;
     }
 
     fn run(&mut self) {
@@ -360,15 +470,12 @@ impl<'a> Chunk<'a> {
             lens: &mut *self.lens,
         };
         let scores = self.scores.as_deref_mut();
-        match self
+        if let Err(e) = self
             .rollout
             .predict_agents(self.map, self.states, out, scores)
         {
-            Ok(()) => *self.next += self.states.len(),
-            Err(e) => {
-                error!("prediction failed: {e}");
-                *self.ok = false;
-            }
+            error!("prediction failed: {e}");
+            self.ok = false;
         }
     }
 }
@@ -528,6 +635,71 @@ mod tests {
     }
 
     #[test]
+    fn one_large_request_is_shared_among_the_workers_with_the_bytes_of_one_call() {
+        let map = Arc::new(CliffMap::demo());
+        // 3 workers, chunks of about 2,000 positions
+        let mut s = Scheduler::<Vec<u32>>::new(2, &Limits::default(), 3, 2000).unwrap();
+        for (params, options) in [
+            (
+                Params {
+                    k: 20,
+                    seed: 31,
+                    ..Params::default()
+                },
+                Options::default(),
+            ),
+            (
+                Params {
+                    method: Method::Improved,
+                    k: 6,
+                    seed: 2,
+                    ..Params::default()
+                },
+                Options::default(),
+            ),
+            (
+                Params {
+                    k: 8,
+                    seed: 4,
+                    ..Params::default()
+                },
+                Options {
+                    speed_beta: 1.0,
+                    coast: 2.0,
+                    scores: true,
+                    ..Options::default()
+                },
+            ),
+        ] {
+            // 30 agents (the default limit 32); the slot's rollouts are reused
+            let before = s.parallel_chunks as usize;
+            let states = admit_with(&mut s, &map, 30, &params, &options);
+            let mut rounds = 0;
+            let mut words = None;
+            while s.busy() {
+                s.run_round();
+                rounds += 1;
+                s.take_finished(|f| {
+                    assert!(f.ok);
+                    words = Some(f.output.clone());
+                });
+            }
+            assert!(s.slots.iter().all(|t| t.task.is_none()));
+            // every round but the last ran three chunks at once
+            let per_agent = params.k * params.steps() * cost_factor(&params, &options);
+            let chunk = (2000 / per_agent).max(1);
+            assert_eq!(rounds, 30usize.div_ceil(3 * chunk), "{params:?}");
+            assert!(
+                s.parallel_chunks as usize - before >= 3 * (rounds - 1),
+                "{params:?}"
+            );
+            let mut whole = TrajectoryBatch::new();
+            predict_with(&map, &states, &params, &options, &mut whole).unwrap();
+            assert!(words.unwrap() == words_of(&whole), "{params:?} {options:?}");
+        }
+    }
+
+    #[test]
     fn chunked_requests_give_the_bytes_of_one_call_and_small_ones_finish_first() {
         let map = Arc::new(CliffMap::demo());
         let big = Params {
@@ -537,7 +709,8 @@ mod tests {
             ..Params::default()
         };
         let small = Params { seed: 5, ..big };
-        // chunks of 2 agents (1200 positions): the big request needs 10 rounds
+        // chunks of 2 agents (1200 positions): the big request takes two chunks a round
+        // (one per worker) while alone, one beside the small one: 6 rounds
         let mut s = Scheduler::<Vec<u32>>::new(4, &Limits::default(), 2, 1200).unwrap();
         let big_states = admit(&mut s, &map, 20, &big);
         let mut small_states = Vec::new();
@@ -557,7 +730,7 @@ mod tests {
         // the small one, admitted after round 3, finished in round 4
         assert_eq!(
             finished.iter().map(|f| (f.0, f.1)).collect::<Vec<_>>(),
-            vec![(4, 1), (10, 20)]
+            vec![(4, 1), (6, 20)]
         );
         for (_, agents, words, params) in &finished {
             let states = if *agents == 1 {

@@ -90,7 +90,7 @@ pub struct Settings {
     pub max_remote_sessions: usize,
     /// How long the loop busy-polls after the last request before it sleeps.
     pub idle_spin: Duration,
-    /// Threads predicting chunks of different requests at once (the serving thread is
+    /// Threads predicting chunks at once, of several requests or one (the serving thread is
     /// one of them); the number of cores by default.
     pub workers: usize,
     /// How often resources of dead processes (clients killed with SIGKILL) are removed.

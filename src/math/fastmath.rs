@@ -4,9 +4,14 @@
 //! of the kernel once per step; the C library's versions handle every input with full
 //! care and cost most of a step. These kernels are exact enough for prediction (sin/cos
 //! within a few 1e-16 for the angles that occur, exp within 1e-14 relative; single precision
-//! versions within 3e-7) and give the same bits on every machine.
+//! versions within 3e-7) and give the same bits on every machine. The single-precision
+//! kernels come in a second form (`..._with::<Fused>`) whose multiply-adds are fused, for
+//! the loop's AVX2 + FMA copy ([`Simd`](super::Simd)): within the same bounds, not the
+//! same bits.
 
 use std::f64::consts::FRAC_2_PI;
+
+use super::simd::{MulAdd, Separate};
 
 // Cody-Waite split of pi/2 (the classic fdlibm constants).
 const PIO2_HI: f64 = 1.570_796_326_734_125_6;
@@ -87,6 +92,12 @@ pub fn exp_neg(x: f64) -> f64 {
 /// (least squares on Chebyshev nodes).
 #[inline(always)]
 pub fn atan2_f32(y: f32, x: f32) -> f32 {
+    atan2_f32_with::<Separate>(y, x)
+}
+
+/// [`atan2_f32`] with the multiply-adds of `M` (fused on the AVX2 path).
+#[inline(always)]
+pub(crate) fn atan2_f32_with<M: MulAdd>(y: f32, x: f32) -> f32 {
     use std::f32::consts::{FRAC_PI_2, PI};
     let (ax, ay) = (x.abs(), y.abs());
     // (comparisons rather than f32::min / max, whose NaN rules cost instructions)
@@ -101,30 +112,51 @@ pub fn atan2_f32(y: f32, x: f32) -> f32 {
     let s = a * a;
     let s2 = s * s;
     let s4 = s2 * s2;
-    let p = ((0.999_996_6 + s * -0.333_183_03) + s2 * (0.198_132_16 + s * -0.132_475_32))
-        + s4 * ((0.079_811_36 + s * -0.033_726_055) + s2 * 0.006_842_661);
+    let m = M::madd32;
+    // ((c0 + s c1) + s2 (c2 + s c3)) + s4 ((c4 + s c5) + s2 c6)
+    let p = m(
+        s4,
+        m(s2, 0.006_842_661, m(s, -0.033_726_055, 0.079_811_36)),
+        m(
+            s2,
+            m(s, -0.132_475_32, 0.198_132_16),
+            m(s, -0.333_183_03, 0.999_996_6),
+        ),
+    );
     let r = a * p;
     let r = if ay > ax { FRAC_PI_2 - r } else { r };
     let r = if x < 0.0 { PI - r } else { r };
     r.copysign(y)
 }
 
-/// `(sin x, cos x)` in single precision for `|x| < 1e4`, within 2e-7. Branch-free.
+/// `(sin x, cos x)` in single precision for `|x| < 1e4`, within 2e-7, with the
+/// multiply-adds of `M` (fused on the AVX2 path). Branch-free.
 #[inline(always)]
-pub fn sin_cos_f32(x: f32) -> (f32, f32) {
+pub(crate) fn sin_cos_f32_with<M: MulAdd>(x: f32) -> (f32, f32) {
     const MAGIC: f32 = 12_582_912.0; // 1.5 * 2^23
     const PIO2_HI: f32 = 1.570_796_4;
     const PIO2_LO: f32 = -4.371_139e-8;
+    let m = M::madd32;
     let t = x * std::f32::consts::FRAC_2_PI + MAGIC;
     let k = t - MAGIC;
     let q = t.to_bits() & 3;
-    let r = (x - k * PIO2_HI) - k * PIO2_LO;
+    // (x - k PIO2_HI) - k PIO2_LO
+    let r = m(-k, PIO2_LO, m(-k, PIO2_HI, x));
     let z = r * r;
     let z2 = z * z;
-    let ps = (-1.0 / 6.0 + z * (1.0 / 120.0)) + z2 * (-1.0 / 5040.0 + z * (1.0 / 362_880.0));
-    let pc = (1.0 / 24.0 + z * (-1.0 / 720.0)) + z2 * (1.0 / 40_320.0 + z * (-1.0 / 3_628_800.0));
-    let s = (r + r * z * ps).to_bits();
-    let c = (1.0 - 0.5 * z + z2 * pc).to_bits();
+    let ps = m(
+        z2,
+        m(z, 1.0 / 362_880.0, -1.0 / 5040.0),
+        m(z, 1.0 / 120.0, -1.0 / 6.0),
+    );
+    let pc = m(
+        z2,
+        m(z, -1.0 / 3_628_800.0, 1.0 / 40_320.0),
+        m(z, -1.0 / 720.0, 1.0 / 24.0),
+    );
+    // r + r z ps, and 1 - z / 2 + z2 pc
+    let s = m(r * z, ps, r).to_bits();
+    let c = m(z2, pc, m(-0.5, z, 1.0)).to_bits();
     let swap = 0u32.wrapping_sub(q & 1);
     let sin = (c & swap) | (s & !swap);
     let cos = (s & swap) | (c & !swap);
@@ -134,15 +166,28 @@ pub fn sin_cos_f32(x: f32) -> (f32, f32) {
     )
 }
 
-/// `acos x` in single precision for `x` in `[-1, 1]` (clamped), within 3e-7 rad.
+/// `acos x` in single precision for `x` in `[-1, 1]` (clamped), within 3e-7 rad, with
+/// the multiply-adds of `M` (fused on the AVX2 path).
 #[inline(always)]
-pub fn acos_f32(x: f32) -> f32 {
+pub(crate) fn acos_f32_with<M: MulAdd>(x: f32) -> f32 {
     let x = x.clamp(-1.0, 1.0);
     let a = x.abs();
     let a2 = a * a;
     let a4 = a2 * a2;
-    let p = ((1.570_796_3 + a * -0.214_598_8) + a2 * (0.088_978_99 + a * -0.050_174_303))
-        + a4 * ((0.030_891_88 + a * -0.017_088_126) + a2 * (0.006_670_09 + a * -0.001_262_491_1));
+    let m = M::madd32;
+    let p = m(
+        a4,
+        m(
+            a2,
+            m(a, -0.001_262_491_1, 0.006_670_09),
+            m(a, -0.017_088_126, 0.030_891_88),
+        ),
+        m(
+            a2,
+            m(a, -0.050_174_303, 0.088_978_99),
+            m(a, -0.214_598_8, 1.570_796_3),
+        ),
+    );
     let r = (1.0 - a).sqrt() * p;
     if x < 0.0 { std::f32::consts::PI - r } else { r }
 }
@@ -150,17 +195,28 @@ pub fn acos_f32(x: f32) -> f32 {
 /// `e^x` in single precision for `x <= 0` (0 below -87), within 3e-7 relative.
 #[inline(always)]
 pub fn exp_neg_f32(x: f32) -> f32 {
+    exp_neg_f32_with::<Separate>(x)
+}
+
+/// [`exp_neg_f32`] with the multiply-adds of `M` (fused on the AVX2 path).
+#[inline(always)]
+pub(crate) fn exp_neg_f32_with<M: MulAdd>(x: f32) -> f32 {
     const MAGIC: f32 = 12_582_912.0;
     const LN2_HI: f32 = 0.693_145_75;
     const LN2_LO: f32 = 1.428_606_8e-6;
+    let m = M::madd32;
     let xc = x.clamp(-87.0, 0.0);
     let t = xc * std::f32::consts::LOG2_E + MAGIC;
     let k = t - MAGIC;
-    let r = (xc - k * LN2_HI) - k * LN2_LO;
+    let r = m(-k, LN2_LO, m(-k, LN2_HI, xc));
     let r2 = r * r;
     let r4 = r2 * r2;
-    let p = ((1.0 + r) + r2 * (0.5 + r * (1.0 / 6.0)))
-        + r4 * ((1.0 / 24.0 + r * (1.0 / 120.0)) + r2 * (1.0 / 720.0));
+    // ((1 + r) + r2 (1/2 + r/6)) + r4 ((1/24 + r/120) + r2/720)
+    let p = m(
+        r4,
+        m(r2, 1.0 / 720.0, m(r, 1.0 / 120.0, 1.0 / 24.0)),
+        m(r2, m(r, 1.0 / 6.0, 0.5), 1.0 + r),
+    );
     let ki = t.to_bits().wrapping_sub(MAGIC.to_bits());
     let scale = f32::from_bits(ki.wrapping_add(127) << 23);
     let y = p * scale;
@@ -203,34 +259,45 @@ mod tests {
         assert!((exp_neg(-700.0) / (-700.0f64).exp() - 1.0).abs() < 1e-13);
     }
 
-    #[test]
-    fn single_precision_kernels_match_libm() {
+    /// The single-precision kernels with the multiply-adds of `M` against libm.
+    fn single_precision_kernels_within_bounds<M: MulAdd>() {
         let (mut ws, mut wa, mut we) = (0.0f64, 0.0f64, 0.0f64);
         for i in -100_000i32..=100_000 {
             let x = i as f32 * 1e-4;
-            let (s, c) = sin_cos_f32(x);
+            let (s, c) = sin_cos_f32_with::<M>(x);
             ws = ws
                 .max((s as f64 - (x as f64).sin()).abs())
                 .max((c as f64 - (x as f64).cos()).abs());
             let y = i as f32 * 1e-5;
-            wa = wa.max((acos_f32(y) as f64 - (y as f64).acos()).abs());
+            wa = wa.max((acos_f32_with::<M>(y) as f64 - (y as f64).acos()).abs());
             let e = -(i.unsigned_abs() as f32) * 3e-4;
-            we = we.max((exp_neg_f32(e) as f64 / (e as f64).exp() - 1.0).abs());
+            we = we.max((exp_neg_f32_with::<M>(e) as f64 / (e as f64).exp() - 1.0).abs());
         }
         assert!(ws < 3e-7, "sin/cos {ws}");
         assert!(wa < 5e-7, "acos {wa}");
         assert!(we < 5e-7, "exp {we}");
-        assert_eq!(exp_neg_f32(-100.0), 0.0);
+        assert_eq!(exp_neg_f32_with::<M>(-100.0), 0.0);
         let mut wt = 0.0f64;
         for i in 0..=100_000 {
             let t = -PI + i as f64 * 2.0 * PI / 100_000.0;
             for r in [1.0, 1e-3, 7.0] {
                 let (y, x) = ((t.sin() * r) as f32, (t.cos() * r) as f32);
-                let d = atan2_f32(y, x) as f64 - (y as f64).atan2(x as f64);
+                let d = atan2_f32_with::<M>(y, x) as f64 - (y as f64).atan2(x as f64);
                 wt = wt.max(d.abs());
             }
         }
         assert!(wt < 1e-6, "atan2 {wt}");
-        assert_eq!(atan2_f32(0.0, 0.0), 0.0);
+        assert_eq!(atan2_f32_with::<M>(0.0, 0.0), 0.0);
+    }
+
+    #[test]
+    fn single_precision_kernels_match_libm() {
+        single_precision_kernels_within_bounds::<Separate>();
+    }
+
+    #[test]
+    fn fused_single_precision_kernels_match_libm() {
+        // (software fused multiply-adds where the processor has none: the same bits)
+        single_precision_kernels_within_bounds::<crate::math::simd::Fused>();
     }
 }

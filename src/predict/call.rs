@@ -2,14 +2,13 @@
 //! flavour the method and options need (constant velocity, or the CLiFF-LHMP lane loop
 //! with or without scores, speed kernel, coasting, follow and candidates).
 
-use glam::DVec2;
-use rand_xoshiro::Xoshiro256PlusPlus;
-
 use super::cvm::{cvm_score, roll_cvm};
 use super::lanes::{ANY, Extras, Lanes, PAPER, SPEED};
+use super::seeds::agent_rng;
 use super::{BatchMut, Method, Params, Point};
 use crate::map::CliffMap;
 use crate::motion::State;
+use glam::DVec2;
 
 /// The drawn candidates of one agent before the best `k` are kept.
 #[derive(Debug, Clone, Default)]
@@ -28,7 +27,9 @@ pub(super) struct Call<'a, 'b> {
     pub(super) agents: &'a [State],
     pub(super) params: &'a Params,
     pub(super) extras: &'a Extras,
-    pub(super) rng: &'a mut Xoshiro256PlusPlus,
+    /// The call's seed, and the index in the call of `agents[0]` ([`agent_rng`]).
+    pub(super) seed: u64,
+    pub(super) first_agent: u64,
     pub(super) out: BatchMut<'b>,
     pub(super) scores: Option<&'b mut [f32]>,
     pub(super) scratch: &'a mut Candidates,
@@ -86,7 +87,8 @@ impl Call<'_, '_> {
             agents,
             params,
             extras,
-            rng,
+            seed,
+            first_agent,
             out,
             mut scores,
             scratch,
@@ -119,6 +121,7 @@ impl Call<'_, '_> {
             let tracks = &mut out.positions[a * k * steps..(a + 1) * k * steps];
             let lens = &mut out.lens[a * k..(a + 1) * k];
             let agent_scores = scores.as_deref_mut().map(|s| &mut s[a * k..(a + 1) * k]);
+            let rng = &mut agent_rng(seed, first_agent + a as u64);
             if c == 1 {
                 let agent_scores = agent_scores.unwrap_or(&mut []);
                 lanes.roll_agent::<MOTION, SCORES>(rng, tracks, lens, agent_scores);

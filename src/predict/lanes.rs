@@ -10,7 +10,8 @@ use super::options::NO_LOCATION_LOG_DENSITY;
 use super::{HeadingRule, Params, Point};
 use crate::map::{CliffMap, FollowWeights};
 use crate::math::fastmath;
-use crate::math::wrap_2pi;
+use crate::math::simd::{MulAdd, Separate};
+use crate::math::{Simd, wrap_2pi};
 use crate::motion::{SpeedPrior, State};
 
 /// The options as the lane loop uses them.
@@ -29,6 +30,8 @@ pub(super) struct Extras {
     pub(super) blend: f64,
     /// Scores by [`Rank::Consensus`](super::Rank::Consensus) instead of likelihood.
     pub(super) consensus: bool,
+    /// The instructions the loop runs on (an available path: [`Simd::available`]).
+    pub(super) simd: Simd,
 }
 
 /// Lane-loop flavour: the paper's method, without per-sample speeds or coasting state.
@@ -84,6 +87,34 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
             } else {
                 &mut []
             };
+            #[cfg(target_arch = "x86_64")]
+            if self.extras.simd == Simd::Avx2Fma {
+                // SAFETY: `Extras::simd` is a path the processor has (`Simd::available`,
+                // checked where the call's extras are made), so AVX2 and FMA exist.
+                unsafe {
+                    match n {
+                        1..=4 => {
+                            self.roll_avx2::<4, MOTION, SCORES>(rng, tracks, lens, group_scores)
+                        }
+                        5..=8 => {
+                            self.roll_avx2::<8, MOTION, SCORES>(rng, tracks, lens, group_scores)
+                        }
+                        9..=12 => {
+                            self.roll_avx2::<12, MOTION, SCORES>(rng, tracks, lens, group_scores)
+                        }
+                        13..=16 => {
+                            self.roll_avx2::<16, MOTION, SCORES>(rng, tracks, lens, group_scores)
+                        }
+                        _ => self.roll_avx2::<MAX_LANES, MOTION, SCORES>(
+                            rng,
+                            tracks,
+                            lens,
+                            group_scores,
+                        ),
+                    }
+                }
+                continue;
+            }
             match n {
                 1..=4 => self.roll::<4, MOTION, SCORES>(rng, tracks, lens, group_scores),
                 5..=8 => self.roll::<8, MOTION, SCORES>(rng, tracks, lens, group_scores),
@@ -92,6 +123,36 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
                 _ => self.roll::<MAX_LANES, MOTION, SCORES>(rng, tracks, lens, group_scores),
             }
         }
+    }
+
+    /// [`roll_body`](Self::roll_body) on the baseline instructions.
+    #[inline(never)]
+    fn roll<const N: usize, const MOTION: u8, const SCORES: bool>(
+        &self,
+        rng: &mut Xoshiro256PlusPlus,
+        tracks: &mut [Point],
+        lens: &mut [u32],
+        scores: &mut [f32],
+    ) {
+        self.roll_body::<N, MOTION, SCORES, Separate>(rng, tracks, lens, scores)
+    }
+
+    /// [`roll_body`](Self::roll_body) compiled for AVX2 and FMA (eight single-precision
+    /// lanes per instruction, multiply-adds fused).
+    ///
+    /// # Safety
+    /// The processor must have AVX2 and FMA ([`Simd::Avx2Fma`] available).
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    #[inline(never)]
+    unsafe fn roll_avx2<const N: usize, const MOTION: u8, const SCORES: bool>(
+        &self,
+        rng: &mut Xoshiro256PlusPlus,
+        tracks: &mut [Point],
+        lens: &mut [u32],
+        scores: &mut [f32],
+    ) {
+        self.roll_body::<N, MOTION, SCORES, crate::math::simd::Fused>(rng, tracks, lens, scores)
     }
 
     /// Up to `N` CLiFF-LHMP samples of one agent: `tracks` holds `lens.len()` samples of
@@ -108,8 +169,10 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
     /// neither coasts nor changes speed does the same arithmetic and draws as with
     /// [`PAPER`] (same bytes). With `SCORES` each step adds its log-density. With
     /// [`PAPER`] and without scores, the loop is the paper's method and nothing else.
-    #[inline(never)]
-    fn roll<const N: usize, const MOTION: u8, const SCORES: bool>(
+    /// `M` says how its single-precision kernels and position updates multiply and add
+    /// (fused only in the AVX2 copy).
+    #[inline(always)]
+    fn roll_body<const N: usize, const MOTION: u8, const SCORES: bool, M: MulAdd>(
         &self,
         rng: &mut Xoshiro256PlusPlus,
         tracks: &mut [Point],
@@ -203,7 +266,7 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
             // Phase 1: draw at each sampling lane's location (in lane order); follow's
             // weights, which draw nothing, first for all lanes.
             let weights = if follow_split {
-                follow_weights::<N>(map, &loc, &ux, &uy, &alive, &on_map, follow)
+                follow_weights_on::<N>(extras.simd, map, &loc, &ux, &uy, &alive, &on_map, follow)
             } else {
                 [FollowWeights::default(); N]
             };
@@ -235,17 +298,32 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
                     // at a time.)
                     let ts32: [f32; N] = std::array::from_fn(|l| ts[l] as f32);
                     let beta = params.beta as f32;
-                    let (ts4, _) = ts32.as_chunks::<4>();
-                    let (ux4, _) = ux.as_chunks_mut::<4>();
-                    let (uy4, _) = uy.as_chunks_mut::<4>();
+                    // (eight lanes at a time: one AVX register, or two SSE2 ones)
+                    let (ts8, ts4) = ts32.as_chunks::<8>();
+                    let (ux8, ux4) = ux.as_chunks_mut::<8>();
+                    let (uy8, uy4) = uy.as_chunks_mut::<8>();
                     if trusting {
                         let gain = gain as f32;
-                        for ((t, hx), hy) in ts4.iter().zip(ux4).zip(uy4) {
-                            turn4::<true>(t, hx, hy, beta, gain);
+                        for ((t, hx), hy) in ts8.iter().zip(ux8).zip(uy8) {
+                            turn::<8, M, true>(t, hx, hy, beta, gain);
+                        }
+                        if let (Some(t), Some(hx), Some(hy)) = (
+                            ts4.first_chunk::<4>(),
+                            ux4.first_chunk_mut::<4>(),
+                            uy4.first_chunk_mut::<4>(),
+                        ) {
+                            turn::<4, M, true>(t, hx, hy, beta, gain);
                         }
                     } else {
-                        for ((t, hx), hy) in ts4.iter().zip(ux4).zip(uy4) {
-                            turn4::<false>(t, hx, hy, beta, 1.0);
+                        for ((t, hx), hy) in ts8.iter().zip(ux8).zip(uy8) {
+                            turn::<8, M, false>(t, hx, hy, beta, 1.0);
+                        }
+                        if let (Some(t), Some(hx), Some(hy)) = (
+                            ts4.first_chunk::<4>(),
+                            ux4.first_chunk_mut::<4>(),
+                            uy4.first_chunk_mut::<4>(),
+                        ) {
+                            turn::<4, M, false>(t, hx, hy, beta, 1.0);
                         }
                     }
                 }
@@ -275,8 +353,9 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
                     // branch-free over the lanes (single-precision kernel weight)
                     let beta = extras.speed_beta as f32;
                     let d: [f32; N] = std::array::from_fn(|l| (rs[l] - speed[l]) as f32);
-                    let lambda: [f32; N] =
-                        std::array::from_fn(|l| fastmath::exp_neg_f32(-beta * d[l] * d[l]));
+                    let lambda: [f32; N] = std::array::from_fn(|l| {
+                        fastmath::exp_neg_f32_with::<M>(-beta * d[l] * d[l])
+                    });
                     for l in 0..N {
                         let moved = speed[l] + (lambda[l] * d[l]) as f64;
                         // (without coasting every live lane drew; the others are dead)
@@ -300,7 +379,7 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
             // The step's log-density (the headings' angles four lanes at a time).
             if SCORES {
                 for l in 0..N {
-                    heading[l] = fastmath::atan2_f32(uy[l], ux[l]);
+                    heading[l] = fastmath::atan2_f32_with::<M>(uy[l], ux[l]);
                 }
                 for l in 0..N {
                     step_score[l] = if drawing[l] {
@@ -312,8 +391,8 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
             }
             for l in 0..N {
                 let dist = if moving { speed[l] * dt } else { dist };
-                px[l] += ux[l] as f64 * dist;
-                py[l] += uy[l] as f64 * dist;
+                px[l] = M::madd(ux[l] as f64, dist, px[l]);
+                py[l] = M::madd(uy[l] as f64, dist, py[l]);
             }
             // Phase 3: look up the new positions; off the map a lane coasts or ends.
             let mut any = false;
@@ -368,10 +447,64 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
     }
 }
 
+/// [`follow_weights`] on the path `simd` (the lane loop's).
+#[allow(clippy::too_many_arguments)] // the lane loop's arrays, passed through
+#[inline(always)]
+fn follow_weights_on<const N: usize>(
+    simd: Simd,
+    map: &CliffMap,
+    loc: &[usize; N],
+    ux: &[f32; N],
+    uy: &[f32; N],
+    alive: &[bool; N],
+    on_map: &[bool; N],
+    follow: f32,
+) -> [FollowWeights; N] {
+    #[cfg(target_arch = "x86_64")]
+    if simd == Simd::Avx2Fma {
+        // SAFETY: the lane loop runs on `Simd::Avx2Fma` only where it is available.
+        return unsafe { follow_weights_avx2::<N>(map, loc, ux, uy, alive, on_map, follow) };
+    }
+    let _ = simd;
+    follow_weights::<N>(map, loc, ux, uy, alive, on_map, follow)
+}
+
+/// [`follow_weights`] compiled for AVX2 and FMA.
+///
+/// # Safety
+/// The processor must have AVX2 and FMA.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+#[inline(never)]
+unsafe fn follow_weights_avx2<const N: usize>(
+    map: &CliffMap,
+    loc: &[usize; N],
+    ux: &[f32; N],
+    uy: &[f32; N],
+    alive: &[bool; N],
+    on_map: &[bool; N],
+    follow: f32,
+) -> [FollowWeights; N] {
+    follow_weights_body::<N>(map, loc, ux, uy, alive, on_map, follow)
+}
+
 /// The follow weights of every lane that samples the map ([`CliffMap::follow_weights`]),
 /// computed apart from the lane loop (which stays small) and before the lanes draw.
 #[inline(never)]
 fn follow_weights<const N: usize>(
+    map: &CliffMap,
+    loc: &[usize; N],
+    ux: &[f32; N],
+    uy: &[f32; N],
+    alive: &[bool; N],
+    on_map: &[bool; N],
+    follow: f32,
+) -> [FollowWeights; N] {
+    follow_weights_body::<N>(map, loc, ux, uy, alive, on_map, follow)
+}
+
+#[inline(always)]
+fn follow_weights_body<const N: usize>(
     map: &CliffMap,
     loc: &[usize; N],
     ux: &[f32; N],
@@ -389,31 +522,33 @@ fn follow_weights<const N: usize>(
     w
 }
 
-/// The reference's heading update for four lanes: the circular weighted mean of the
+/// The reference's heading update for `L` lanes: the circular weighted mean of the
 /// sampled direction `t` (weight `lambda = exp(-beta * delta^2)`) and the heading
-/// `(hx, hy)` (weight `1 - lambda`), as a unit vector. Straight-line code over four
-/// lanes, which the compiler turns into SSE2 instructions. With `GAIN` the kernel's
-/// weight is scaled by `gain` ([`Options::trust`](super::Options::trust)).
+/// `(hx, hy)` (weight `1 - lambda`), as a unit vector. Straight-line code over the
+/// lanes, which the compiler turns into SSE2 instructions (AVX2 and FMA in the loop's
+/// AVX2 copy, with `M` fused). With `GAIN` the kernel's weight is scaled by `gain`
+/// ([`Options::trust`](super::Options::trust)).
 #[inline(always)]
-fn turn4<const GAIN: bool>(
-    t: &[f32; 4],
-    hx: &mut [f32; 4],
-    hy: &mut [f32; 4],
+fn turn<const L: usize, M: MulAdd, const GAIN: bool>(
+    t: &[f32; L],
+    hx: &mut [f32; L],
+    hy: &mut [f32; L],
     beta: f32,
     gain: f32,
 ) {
-    for l in 0..4 {
-        let (sin, cos) = fastmath::sin_cos_f32(t[l]);
+    let m = M::madd32;
+    for l in 0..L {
+        let (sin, cos) = fastmath::sin_cos_f32_with::<M>(t[l]);
         let (x, y) = (hx[l], hy[l]);
         // |shortest angle| between the sample and the heading, in [0, pi].
-        let delta = fastmath::acos_f32(cos * x + sin * y);
-        let mut lambda = fastmath::exp_neg_f32(-beta * delta * delta);
+        let delta = fastmath::acos_f32_with::<M>(m(cos, x, sin * y));
+        let mut lambda = fastmath::exp_neg_f32_with::<M>(-beta * delta * delta);
         if GAIN {
             lambda *= gain;
         }
-        let vx = cos * lambda + x * (1.0 - lambda);
-        let vy = sin * lambda + y * (1.0 - lambda);
-        let n2 = vx * vx + vy * vy;
+        let vx = m(cos, lambda, x * (1.0 - lambda));
+        let vy = m(sin, lambda, y * (1.0 - lambda));
+        let n2 = m(vx, vx, vy * vy);
         // Exactly opposite with lambda = 1/2: the reference's atan2(0, 0) = 0.
         let ok = n2 > 1e-20;
         let inv = 1.0 / n2.max(1e-20).sqrt();

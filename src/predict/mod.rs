@@ -3,10 +3,13 @@
 //! [`predict`] rolls `k` samples forward for every agent and writes them into a
 //! caller-owned [`TrajectoryBatch`] (or, through [`predict_into`], into any pair of
 //! slices such as a shared-memory response). Once the buffer is sized, a call does not
-//! allocate. One `Xoshiro256PlusPlus` generator per call, seeded from
-//! [`Params::seed`], draws for the agents in order; an agent's samples advance in
-//! lockstep (groups of up to 20), one draw per live sample per step, in sample order. The
-//! same map, states and parameters give the same bytes.
+//! allocate. Each agent draws from a `Xoshiro256PlusPlus` generator of its own, seeded
+//! from [`Params::seed`] and the agent's place in the call (the first agent's from the
+//! seed itself, so a one-agent call is a call with that seed); an agent's samples
+//! advance in lockstep (groups of up to 20), one draw per live sample per step, in
+//! sample order. The same map, states and parameters give the same bytes, whether the
+//! agents are predicted in one call, in chunks, or on several threads
+//! ([`predict_batch`]); on one instruction path ([`Simd`](crate::math::Simd)).
 //!
 //! ```
 //! use cliff::map::CliffMap;
@@ -31,6 +34,7 @@ mod lanes;
 mod options;
 pub mod preset;
 mod rollout;
+mod seeds;
 mod with_options;
 
 use std::fmt;
@@ -42,7 +46,7 @@ use crate::motion::State;
 pub use batch::{BatchMut, Point, TrajectoryBatch};
 pub use options::{CONSENSUS_STEP_PENALTY, NO_LOCATION_LOG_DENSITY, Options, Rank};
 pub use rollout::{Rollout, Tables};
-pub use with_options::{predict_into_with, predict_with};
+pub use with_options::{predict_batch, predict_batch_into, predict_into_with, predict_with};
 
 /// Prediction method.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]

@@ -6,17 +6,17 @@
 //! (`lanes.rs`). The loop is compiled in a few flavours (const parameters): the paper's
 //! method alone, with scores, and with the speed kernel or coasting (with and without
 //! scores). The paper's flavour has none of the options' arithmetic or bookkeeping, so
-//! the options cost nothing when they are off.
+//! the options cost nothing when they are off. Each flavour has a baseline copy and an
+//! AVX2 + FMA copy, chosen at run time ([`Simd`](crate::math::Simd)).
 
 use glam::DVec2;
-use rand::SeedableRng;
-use rand_xoshiro::Xoshiro256PlusPlus;
 
 use super::call::{Call, Candidates};
 use super::lanes::Extras;
 use super::options::Options;
 use super::{BatchMut, Method, Params, PredictError, preset};
 use crate::map::{CliffMap, Lookup};
+use crate::math::Simd;
 use crate::motion::State;
 
 /// Which neighbour-table path a [`Rollout`] takes for CLiFF-LHMP map lookups.
@@ -37,8 +37,14 @@ pub enum Tables {
 /// [`predict_into`](super::predict_into) and
 /// [`predict_into_with`](super::predict_into_with) are one `Rollout` over all agents.
 /// Cutting the agents into consecutive chunks and predicting them in order with the
-/// same `Rollout` gives the same bytes (and scores), since the generator draws for the
-/// agents in order; a server uses this to interleave a large request with others.
+/// same `Rollout` gives the same bytes (and scores), since each agent draws from a
+/// generator of its own, seeded from the call's seed and the agent's place in the call;
+/// a server uses this to interleave a large request with others. Chunks may also run at
+/// once on other threads, each from a copy [`ahead`](Rollout::ahead) of the chunks
+/// before it ([`predict_agents_parallel`](Rollout::predict_agents_parallel)).
+///
+/// (Before this scheme one generator drew for all agents in order: calls with more
+/// than one agent gave other samples then; one-agent calls give the same.)
 ///
 /// ```
 /// use cliff::map::CliffMap;
@@ -77,9 +83,14 @@ pub struct Rollout {
     params: Params,
     options: Options,
     tables: Tables,
-    rng: Xoshiro256PlusPlus,
+    /// The call's seed; agent `i` of the call draws from `seeds::agent_rng(seed, i)`.
+    seed: u64,
+    /// Agents predicted so far (the index of the next agent in the call).
+    next_agent: u64,
     /// Buffers for [`Options::candidates`], grown once and reused.
     scratch: Candidates,
+    /// The instructions the lane loop runs on (available on this processor).
+    simd: Simd,
 }
 
 impl Rollout {
@@ -94,8 +105,10 @@ impl Rollout {
             params: resolved,
             options,
             tables: Tables::Build,
-            rng: Xoshiro256PlusPlus::seed_from_u64(params.seed),
+            seed: params.seed,
+            next_agent: 0,
             scratch: Candidates::default(),
+            simd: Simd::active(),
         })
     }
 
@@ -118,7 +131,8 @@ impl Rollout {
         options.validate()?;
         self.asked = *params;
         (self.params, self.options) = preset::resolve(params, &options);
-        self.rng = Xoshiro256PlusPlus::seed_from_u64(params.seed);
+        self.seed = params.seed;
+        self.next_agent = 0;
         Ok(())
     }
 
@@ -126,6 +140,24 @@ impl Rollout {
     pub fn with_tables(mut self, tables: Tables) -> Self {
         self.tables = tables;
         self
+    }
+
+    /// The same rollout on the instructions `simd` ([`Simd::active`] by default, which
+    /// honours `CLIFF_SIMD`); a path the processor does not have falls back to
+    /// [`Simd::Baseline`]. The two paths differ in the last bits of the positions
+    /// (see [`Simd`]).
+    pub fn with_simd(mut self, simd: Simd) -> Self {
+        self.simd = if simd.available() {
+            simd
+        } else {
+            Simd::Baseline
+        };
+        self
+    }
+
+    /// The instructions the lane loop runs on.
+    pub fn simd(&self) -> Simd {
+        self.simd
     }
 
     /// The parameters it predicts with (a preset method resolved: never
@@ -180,7 +212,8 @@ impl Rollout {
             }
             return Ok(());
         }
-        let rng = &mut self.rng;
+        let first_agent = self.next_agent;
+        self.next_agent += agents.len() as u64;
         let extras = Extras {
             speed_beta: options.speed_beta,
             coast_steps: options.coast_steps(params.dt),
@@ -194,6 +227,7 @@ impl Rollout {
             trust: options.trust,
             blend: options.blend,
             consensus: options.rank == super::Rank::Consensus,
+            simd: self.simd,
         };
         let lookup = match (params.method, scores.is_some(), self.tables) {
             // constant velocity looks the map up only for scores
@@ -206,7 +240,8 @@ impl Rollout {
             agents,
             params,
             extras: &extras,
-            rng,
+            seed: self.seed,
+            first_agent,
             out,
             scores,
             scratch: &mut self.scratch,
@@ -219,6 +254,95 @@ impl Rollout {
         Ok(())
     }
 }
+
+impl Rollout {
+    /// [`predict_agents`](Self::predict_agents) with the agents shared among rayon's
+    /// threads (all cores, unless the caller runs it in a smaller pool): the same bytes
+    /// and scores, since each agent draws from a generator of its own
+    /// (`seeds::agent_rng`). Small calls (under about a millisecond of work) run on the
+    /// calling thread. Each thread's share gets a rollout of its own (buffers for
+    /// candidates are allocated per share).
+    pub fn predict_agents_parallel(
+        &mut self,
+        map: &CliffMap,
+        agents: &[State],
+        out: BatchMut<'_>,
+        scores: Option<&mut [f32]>,
+    ) -> Result<(), PredictError> {
+        use rayon::prelude::*;
+        let steps = check_call(agents, &self.params, &out)?;
+        let k = self.params.k;
+        let work = (agents.len() * k * steps).saturating_mul(self.options.cost_factor());
+        let threads = rayon::current_num_threads();
+        if threads < 2 || agents.len() < 2 || steps == 0 || work < PARALLEL_MIN_POSITIONS {
+            return self.predict_agents(map, agents, out, scores);
+        }
+        if let Some(s) = &scores
+            && s.len() != out.lens.len()
+        {
+            // (the sequential call names the error)
+            return self.predict_agents(map, agents, out, scores);
+        }
+        // shares of a few agents, several per thread (agents differ in cost)
+        let per = agents.len().div_ceil(threads * 8).max(1);
+        let first = self.next_agent;
+        let BatchMut { positions, lens } = out;
+        let mut score_shares: Vec<Option<&mut [f32]>> = match scores {
+            Some(s) => s.chunks_mut(per * k).map(Some).collect(),
+            None => (0..agents.len().div_ceil(per)).map(|_| None).collect(),
+        };
+        let this = &*self;
+        agents
+            .par_chunks(per)
+            .zip(positions.par_chunks_mut(per * k * steps))
+            .zip(lens.par_chunks_mut(per * k))
+            .zip(score_shares.par_iter_mut())
+            .enumerate()
+            .try_for_each(|(i, (((agents, positions), lens), scores))| {
+                this.ahead((i * per) as u64).predict_agents(
+                    map,
+                    agents,
+                    BatchMut { positions, lens },
+                    scores.take(),
+                )
+            })?;
+        self.next_agent = first + agents.len() as u64;
+        Ok(())
+    }
+
+    /// A rollout of the same call for the agents `agents` after this one's next agent,
+    /// with buffers of its own: what a thread or worker predicting a later share of a
+    /// call starts from (the shares' results are those of one call). This one does not
+    /// move; [`skip`](Self::skip) moves it past the shares given away.
+    pub fn ahead(&self, agents: u64) -> Rollout {
+        Rollout {
+            asked: self.asked,
+            params: self.params,
+            options: self.options,
+            tables: self.tables,
+            seed: self.seed,
+            next_agent: self.next_agent + agents,
+            scratch: Candidates::default(),
+            simd: self.simd,
+        }
+    }
+
+    /// Move past `agents` agents predicted elsewhere (by [`ahead`](Self::ahead)
+    /// copies).
+    pub fn skip(&mut self, agents: u64) {
+        self.next_agent += agents;
+    }
+
+    /// The index in the call of the next agent this rollout predicts.
+    pub fn next_agent(&self) -> u64 {
+        self.next_agent
+    }
+}
+
+/// Predicted positions (at their cost factor) below which
+/// [`Rollout::predict_agents_parallel`] stays on the calling thread: handing work to
+/// another thread costs tens of microseconds, about a thousand positions' work.
+const PARALLEL_MIN_POSITIONS: usize = 20_000;
 
 /// Check the parameters, the buffer shapes and the agents' states of a call; the
 /// number of steps.

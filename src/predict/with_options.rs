@@ -1,5 +1,6 @@
 //! Predicting with [`Options`]: [`predict_with`] and [`predict_into_with`], the entry
-//! points that run a [`Rollout`] with the options beyond the paper.
+//! points that run a [`Rollout`] with the options beyond the paper, and
+//! [`predict_batch`] and [`predict_batch_into`], the same on all cores.
 
 use super::options::Options;
 use super::rollout::Rollout;
@@ -22,6 +23,58 @@ pub fn predict_with(
     out.try_size_scores(scored)?;
     let (batch, scores) = out.parts_mut();
     rollout.predict_agents(map, agents, batch, scored.then_some(scores))
+}
+
+/// [`predict_with`] on all cores (rayon): the agents are shared among the threads, each
+/// drawing from a generator of its own, so the result is the same bytes and scores as
+/// [`predict_with`]'s on one thread. For calls over many people.
+///
+/// ```
+/// use cliff::map::CliffMap;
+/// use cliff::motion::State;
+/// use cliff::predict::{Params, Options, TrajectoryBatch, predict_batch, predict_with};
+/// use glam::DVec2;
+///
+/// let map = CliffMap::demo();
+/// let people: Vec<State> = (0..200)
+///     .map(|i| State { position: DVec2::new(-10.0, 0.01 * i as f64), speed: 1.2, heading: 0.0, time: 0.0 })
+///     .collect();
+/// let params = Params { seed: 5, ..Params::default() };
+/// let (mut one, mut all) = (TrajectoryBatch::new(), TrajectoryBatch::new());
+/// predict_with(&map, &people, &params, &Options::default(), &mut one).unwrap();
+/// predict_batch(&map, &people, &params, &Options::default(), &mut all).unwrap();
+/// let bits = |b: &TrajectoryBatch| b.positions().iter().flatten().map(|v| v.to_bits()).collect::<Vec<_>>();
+/// assert_eq!((bits(&one), one.lens()), (bits(&all), all.lens()));
+/// ```
+pub fn predict_batch(
+    map: &CliffMap,
+    agents: &[State],
+    params: &Params,
+    options: &Options,
+    out: &mut TrajectoryBatch,
+) -> Result<(), PredictError> {
+    let mut rollout = Rollout::new(params)?.with_options(*options)?;
+    let scored = rollout.options().scores;
+    out.try_reshape(agents.len(), params.k, params.steps())?;
+    out.try_size_scores(scored)?;
+    let (batch, scores) = out.parts_mut();
+    rollout.predict_agents_parallel(map, agents, batch, scored.then_some(scores))
+}
+
+/// [`predict_into_with`] on all cores, as [`predict_batch`] is [`predict_with`] on all
+/// cores: the same bytes and scores.
+pub fn predict_batch_into(
+    map: &CliffMap,
+    agents: &[State],
+    params: &Params,
+    options: &Options,
+    out: BatchMut<'_>,
+    scores: &mut [f32],
+) -> Result<(), PredictError> {
+    let buffer = (options.scores || !scores.is_empty()).then_some(scores);
+    Rollout::new(params)?
+        .with_options(*options)?
+        .predict_agents_parallel(map, agents, out, buffer)
 }
 
 /// [`predict_into`](super::predict_into) with [`Options`]; `scores` holds one score per
