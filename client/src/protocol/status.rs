@@ -50,6 +50,14 @@ pub enum Status {
     /// The sampling radius is above the daemon's limit for the map (the limit is sent in
     /// millimetres; the default limit is four grid steps of the map).
     RadiusTooLarge = 16,
+    /// An observe request ([`KIND_OBSERVE`](super::KIND_OBSERVE)) is over the client's
+    /// budget: rows per second ([`Field::Rows`]), open tracks ([`Field::Tracks`]) or rows
+    /// held ([`Field::Memory`]); `limit` holds the budget. Nothing of the request was
+    /// taken; retry later, or with fewer rows or tracks.
+    OverBudget = 17,
+    /// An observe request names a map the daemon serves but does not learn
+    /// (`cliffd --learn NAME`).
+    NotLearning = 18,
 }
 
 impl Status {
@@ -74,6 +82,8 @@ impl Status {
             14 => ReloadFailed,
             15 => Internal,
             16 => RadiusTooLarge,
+            17 => OverBudget,
+            18 => NotLearning,
             _ => return None,
         })
     }
@@ -104,6 +114,8 @@ impl Status {
             ReloadFailed => "reload-failed",
             Internal => "internal",
             RadiusTooLarge => "radius-too-large",
+            OverBudget => "over-budget",
+            NotLearning => "not-learning",
         }
     }
 }
@@ -160,6 +172,12 @@ pub enum Field {
     TimeMode = 19,
     /// `time` (the time that picks the map, not a row's time).
     MapTime = 20,
+    /// The rows of an observe request (their number, or rows per second of a budget).
+    Rows = 21,
+    /// A client's open tracks.
+    Tracks = 22,
+    /// The rows a client's open tracks hold in the daemon.
+    Memory = 23,
 }
 
 impl Field {
@@ -187,6 +205,9 @@ impl Field {
             18 => Flags,
             19 => TimeMode,
             20 => MapTime,
+            21 => Rows,
+            22 => Tracks,
+            23 => Memory,
             _ => None,
         }
     }
@@ -216,6 +237,9 @@ impl Field {
             Flags => "flags",
             TimeMode => "time_mode",
             MapTime => "map time",
+            Rows => "rows",
+            Tracks => "tracks",
+            Memory => "memory",
         }
     }
 }
@@ -298,15 +322,15 @@ mod tests {
 
     #[test]
     fn status_and_field_codes_round_trip_and_rejections_read_well() {
-        for c in 0..21 {
+        for c in 0..24 {
             assert_eq!(Field::from_code(c) as u32, c);
         }
-        assert_eq!(Field::from_code(21), Field::None);
-        for c in 0..17 {
+        assert_eq!(Field::from_code(24), Field::None);
+        for c in 0..19 {
             let s = Status::from_code(c).unwrap();
             assert_eq!(s.code(), c);
         }
-        assert_eq!(Status::from_code(17), None);
+        assert_eq!(Status::from_code(19), None);
         let r = Rejection::at(Status::NonFinite, Field::Time, 3, 7);
         assert_eq!(r.to_string(), "non-finite (time) at agent 3 row 7");
         let r = Rejection::over(Status::RadiusTooLarge, Field::Radius, 2000);
