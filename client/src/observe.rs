@@ -12,7 +12,9 @@ use crate::protocol::{
 };
 
 /// Rows of tracked people for a map the daemon learns (`cliffd --learn NAME`): each
-/// track under the id the client gives the person, oldest row first. Reuse it between
+/// track under the id the client gives the person, oldest row first. Track ids belong to
+/// the client: the same id from two clients is two people (over zenoh, two
+/// `ObserveRequest`s are two clients). Reuse it between
 /// calls ([`clear`](Self::clear) keeps the allocation). The daemon counts each row once
 /// per client, track and time, so a robot may send every person's whole recent history
 /// each time.
@@ -39,6 +41,7 @@ impl ObserveRequest {
             header: RequestHeader {
                 kind: KIND_OBSERVE,
                 map,
+                seed: session_id(),
                 ..RequestHeader::default()
             },
             rows: Vec::new(),
@@ -62,6 +65,14 @@ impl ObserveRequest {
         );
     }
 
+    /// Mark the last row added as its track's last: the person left the view, and the
+    /// daemon learns the track at once ([`FLAG_TRACK_END`](crate::protocol::FLAG_TRACK_END)).
+    pub fn end_track(&mut self) {
+        if let Some(o) = self.rows.last_mut() {
+            o.flags |= crate::protocol::FLAG_TRACK_END;
+        }
+    }
+
     /// Remove all rows.
     pub fn clear(&mut self) {
         self.rows.clear();
@@ -76,6 +87,24 @@ impl ObserveRequest {
     pub fn rows(&self) -> &[Observation] {
         &self.rows
     }
+}
+
+/// A number that tells this process's observe requests apart from other processes' over
+/// zenoh, where the daemon cannot see who sent a query: the header's `seed` carries it
+/// (over iceoryx2 the daemon knows the client port and ignores it). Time, process id and a
+/// counter, mixed.
+fn session_id() -> u64 {
+    use std::sync::atomic::{AtomicU64, Ordering};
+    static N: AtomicU64 = AtomicU64::new(0);
+    let t = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map(|d| d.as_nanos() as u64)
+        .unwrap_or(0);
+    let mut x = t ^ ((std::process::id() as u64) << 32) ^ N.fetch_add(1, Ordering::Relaxed);
+    // splitmix64's finaliser
+    x = (x ^ (x >> 30)).wrapping_mul(0xbf58476d1ce4e5b9);
+    x = (x ^ (x >> 27)).wrapping_mul(0x94d049bb133111eb);
+    x ^ (x >> 31)
 }
 
 impl Client {

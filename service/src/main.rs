@@ -215,7 +215,9 @@ fn seconds(s: f64, option: &str) -> Result<Duration, String> {
     if s.is_finite() && s > 0.0 && s < 1e9 {
         Ok(Duration::from_secs_f64(s))
     } else {
-        Err(format!("{option} {s}: must be a positive number of seconds"))
+        Err(format!(
+            "{option} {s}: must be a positive number of seconds"
+        ))
     }
 }
 
@@ -350,7 +352,12 @@ fn run() -> Result<ExitCode, String> {
         let l = s.learn;
         println!(
             "cliffd learned: {} rows taken, {} duplicates, {} rows learned, {} versions, {} refused, {} snapshots",
-            l.accepted_rows, l.duplicate_rows, l.learned_rows, l.versions, l.refused_versions, l.snapshots
+            l.accepted_rows,
+            l.duplicate_rows,
+            l.learned_rows,
+            l.versions,
+            l.refused_versions,
+            l.snapshots
         );
     }
     Ok(ExitCode::SUCCESS)

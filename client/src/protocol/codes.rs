@@ -93,6 +93,13 @@ pub const HEADING_PAPER: u32 = 1;
 /// rule); when none has it, from the timestamped positions.
 pub const FLAG_VELOCITY: u32 = 1;
 
+/// [`Observation::flags`](super::Observation::flags) bit, in observe requests only
+/// ([`KIND_OBSERVE`]): the row is its track's last (the person left the tracker's view),
+/// so the daemon learns the track now instead of waiting for it to go quiet, and it no
+/// longer counts as open. Rows of the track sent again later are still recognised as
+/// seen (for the track timeout).
+pub const FLAG_TRACK_END: u32 = 2;
+
 /// The wire code of a method ([`RequestHeader::method`](super::RequestHeader::method)).
 pub fn method_code(method: Method) -> u32 {
     match method {

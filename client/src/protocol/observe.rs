@@ -13,7 +13,9 @@
 
 use cliff::tracks::{MAX_ANGLE, MAX_POSITION, MAX_SPEED, MAX_TIME};
 
-use super::codes::{FLAG_VELOCITY, KIND_OBSERVE, MAX_OBSERVE_ROWS, PROTOCOL_VERSION};
+use super::codes::{
+    FLAG_TRACK_END, FLAG_VELOCITY, KIND_OBSERVE, MAX_OBSERVE_ROWS, PROTOCOL_VERSION,
+};
 use super::request::{Observation, RequestHeader};
 use super::response::ResponseHeader;
 use super::status::{Field, Rejection, Status};
@@ -56,7 +58,8 @@ impl ObserveReply {
 }
 
 /// Check an observe request before any work: version and kind, the number of rows (1 to
-/// `max_rows`, itself at most [`MAX_OBSERVE_ROWS`]), the row flags, every value finite and
+/// `max_rows`, itself at most [`MAX_OBSERVE_ROWS`]), the row flags ([`FLAG_VELOCITY`],
+/// [`FLAG_TRACK_END`](super::FLAG_TRACK_END)), every value finite and
 /// within the bounds of the tracks readers ([`cliff::tracks::MAX_TIME`], ...), speeds not
 /// negative, and times strictly increasing within each run of one track's rows. The map
 /// name is checked by the caller. A rejection names the track (`agent`) and the row's
@@ -83,7 +86,7 @@ pub fn validate_observe(
     }
     for (i, o) in rows.iter().enumerate() {
         let at = |status, field| Rejection::at(status, field, o.agent, i as u32);
-        if o.flags & !FLAG_VELOCITY != 0 {
+        if o.flags & !(FLAG_VELOCITY | FLAG_TRACK_END) != 0 {
             return Err(at(BadValue, Field::Flags));
         }
         if !o.t.is_finite() {
@@ -150,7 +153,10 @@ mod tests {
         let status = |r: &[Observation], max| validate_observe(&h, r, max).unwrap_err();
         assert_eq!(status(&[], 64).status, Status::HistoryTooLong);
         let r = status(&good, 4);
-        assert_eq!((r.status, r.field, r.limit), (Status::HistoryTooLong, Field::Rows, 4));
+        assert_eq!(
+            (r.status, r.field, r.limit),
+            (Status::HistoryTooLong, Field::Rows, 4)
+        );
         // a daemon's setting cannot lift the protocol's bound
         assert_eq!(status(&rows(1, 5000), u32::MAX).limit, MAX_OBSERVE_ROWS);
         let mut bad = good.clone();

@@ -133,7 +133,12 @@ impl HeldSample {
 
     /// Why `candidate` must not replace `current` (its mean log-likelihood on the held
     /// rows more than `max_drop` below), or `None`.
-    pub fn refuses(&self, current: &CliffMap, candidate: &CliffMap, max_drop: f64) -> Option<String> {
+    pub fn refuses(
+        &self,
+        current: &CliffMap,
+        candidate: &CliffMap,
+        max_drop: f64,
+    ) -> Option<String> {
         if self.rows.len() < 100 {
             return None; // too few to judge
         }
@@ -144,7 +149,10 @@ impl HeldSample {
         };
         let (a, b) = (a.mean_log_likelihood, b.mean_log_likelihood);
         if !b.is_finite() {
-            return Some(format!("it does not explain the {} held-out rows", rows.len()));
+            return Some(format!(
+                "it does not explain the {} held-out rows",
+                rows.len()
+            ));
         }
         (a.is_finite() && b < a - max_drop).then(|| {
             format!(

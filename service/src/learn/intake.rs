@@ -7,7 +7,9 @@ use std::time::{Duration, Instant};
 
 use cliff::map::build::Observation as MapObservation;
 use cliff::math::wrap_2pi;
-use cliff_client::protocol::{FLAG_VELOCITY, Field, Observation, Rejection, Status};
+use cliff_client::protocol::{
+    FLAG_TRACK_END, FLAG_VELOCITY, Field, Observation, Rejection, Status,
+};
 
 use super::settings::Budgets;
 
@@ -39,6 +41,9 @@ struct TrackState {
     last_xy: [f64; 2],
     /// When the newest row arrived.
     seen: Instant,
+    /// The client said the track ended (it no longer counts as open; it is kept until
+    /// it goes quiet so that its rows sent again are still duplicates).
+    ended: bool,
     /// Rows waiting to go to the learner.
     pending: Vec<MapObservation>,
     times: Vec<f64>,
@@ -53,6 +58,8 @@ struct ClientState {
     seen: Instant,
     /// Tracks by (map, track id).
     tracks: HashMap<(usize, u32), TrackState>,
+    /// Tracks not ended.
+    open: usize,
     /// Rows held in `pending` over all tracks.
     held: usize,
 }
@@ -140,6 +147,7 @@ impl Intake {
             refilled: now,
             seen: now,
             tracks: HashMap::new(),
+            open: 0,
             held: 0,
         });
         c.seen = now;
@@ -153,16 +161,20 @@ impl Intake {
         while i < rows.len() {
             let id = rows[i].agent;
             let end = run_end(rows, i);
-            let last = c.tracks.get(&(map, id)).map(|t| t.last_t);
-            if last.is_none() {
+            let track = c.tracks.get(&(map, id));
+            let last = track.map_or(f64::NEG_INFINITY, |t| t.last_t);
+            let fresh = rows[i..end].iter().filter(|o| o.t > last).count();
+            if track.is_none_or(|t| t.ended && fresh > 0) {
                 new_tracks += 1;
             }
-            let last = last.unwrap_or(f64::NEG_INFINITY);
-            new_rows += rows[i..end].iter().filter(|o| o.t > last).count();
+            new_rows += fresh;
             i = end;
         }
-        // (a track id repeated in two runs of one request counts as new twice: a bound)
-        if c.tracks.len() + new_tracks > b.max_tracks {
+        // (a track id repeated in two runs of one request counts as new twice: a bound;
+        // ended tracks are kept, at most as many again as open ones, until quiet)
+        if c.open + new_tracks > b.max_tracks
+            || c.tracks.len() + new_tracks > b.max_tracks * ENDED_PER_OPEN
+        {
             self.stats.over_budget += 1;
             return Err(over(Field::Tracks, b.max_tracks as u32));
         }
@@ -184,17 +196,26 @@ impl Intake {
         while i < rows.len() {
             let id = rows[i].agent;
             let end = run_end(rows, i);
-            let t = c.tracks.entry((map, id)).or_insert_with(|| TrackState {
-                last_t: f64::NEG_INFINITY,
-                last_xy: [0.0; 2],
-                seen: now,
-                pending: Vec::with_capacity(b.segment_rows),
-                times: Vec::with_capacity(b.segment_rows),
+            let t = c.tracks.entry((map, id)).or_insert_with(|| {
+                c.open += 1;
+                TrackState {
+                    last_t: f64::NEG_INFINITY,
+                    last_xy: [0.0; 2],
+                    seen: now,
+                    ended: false,
+                    pending: Vec::with_capacity(b.segment_rows),
+                    times: Vec::with_capacity(b.segment_rows),
+                }
             });
             for o in &rows[i..end] {
                 if o.t <= t.last_t {
                     taken.duplicates += 1;
                     continue;
+                }
+                if t.ended {
+                    // the person came back under the same id
+                    t.ended = false;
+                    c.open += 1;
                 }
                 taken.accepted += 1;
                 if let Some(obs) = observation(o, t) {
@@ -209,6 +230,20 @@ impl Intake {
                     c.held -= t.pending.len();
                     out(cut(map, client, id, t, b.segment_rows));
                 }
+            }
+            let last = &rows[end - 1];
+            if last.flags & FLAG_TRACK_END != 0 && !t.ended {
+                c.held -= t.pending.len();
+                if t.pending.len() >= b.min_segment_rows {
+                    out(cut(map, client, id, t, 0));
+                } else {
+                    t.pending.clear();
+                    t.times.clear();
+                }
+                t.pending.shrink_to_fit();
+                t.times.shrink_to_fit();
+                t.ended = true;
+                c.open -= 1;
             }
             i = end;
         }
@@ -233,6 +268,9 @@ impl Intake {
                 c.held -= t.pending.len();
                 if t.pending.len() >= b.min_segment_rows {
                     out(cut(map, client, id, t, b.segment_rows));
+                }
+                if !t.ended {
+                    c.open -= 1;
                 }
                 stats.expired_tracks += 1;
                 false
@@ -298,7 +336,11 @@ fn observation(o: &Observation, t: &TrackState) -> Option<MapObservation> {
     if !rho.is_finite() {
         return None;
     }
-    let theta = if rho > 0.0 { wrap_2pi(d.y.atan2(d.x)) } else { 0.0 };
+    let theta = if rho > 0.0 {
+        wrap_2pi(d.y.atan2(d.x))
+    } else {
+        0.0
+    };
     Some(MapObservation {
         position,
         theta,
@@ -316,6 +358,9 @@ fn cut(map: usize, client: ClientKey, track: u32, t: &mut TrackState, cap: usize
         times: std::mem::replace(&mut t.times, Vec::with_capacity(cap)),
     }
 }
+
+/// Ended tracks kept (until quiet) per open track of the budget.
+const ENDED_PER_OPEN: usize = 4;
 
 /// How long a quiet track is kept by default.
 pub(crate) const DEFAULT_TRACK_TIMEOUT: Duration = Duration::from_secs(5);
@@ -368,14 +413,18 @@ mod tests {
             let from = (k as f64 * 0.1 - 1.9).max(0.0);
             let n = ((k as f64 * 0.1 - from) / 0.1).round() as usize + 1;
             let r = rows(5, from, n);
-            let got = intake.take(1, 0, &r, now, &mut |s| segments.push(s)).unwrap();
+            let got = intake
+                .take(1, 0, &r, now, &mut |s| segments.push(s))
+                .unwrap();
             total.accepted += got.accepted;
             total.duplicates += got.duplicates;
         }
         assert_eq!(total.accepted, 100, "each of the 100 rows once");
         assert!(total.duplicates > 1000);
         // another client's same track id is another person
-        let got = intake.take(2, 0, &rows(5, 0.0, 5), now, &mut |_| ()).unwrap();
+        let got = intake
+            .take(2, 0, &rows(5, 0.0, 5), now, &mut |_| ())
+            .unwrap();
         assert_eq!(got.accepted, 5);
         // 99 observations (the first row has no velocity), in segments of 10
         let obs: usize = segments.iter().map(|s| s.observations.len()).sum();
@@ -391,7 +440,9 @@ mod tests {
         let now = Instant::now();
         let mut sink = |_| ();
         // burst: one second of the rate (100 rows)
-        let r = intake.take(1, 0, &rows(1, 0.0, 40), now, &mut sink).unwrap();
+        let r = intake
+            .take(1, 0, &rows(1, 0.0, 40), now, &mut sink)
+            .unwrap();
         assert_eq!(r.accepted, 40);
         // rows held: at most 50 (the segments of 10 go to the learner at once)
         let rej = intake
@@ -431,6 +482,33 @@ mod tests {
     }
 
     #[test]
+    fn an_ended_track_is_learned_at_once_and_no_longer_open() {
+        let mut intake = Intake::new(budgets());
+        let now = Instant::now();
+        let mut segments = Vec::new();
+        for id in 0..3 {
+            let mut r = rows(id, 0.0, 5);
+            r.last_mut().unwrap().flags |= FLAG_TRACK_END;
+            intake
+                .take(1, 0, &r, now, &mut |s| segments.push(s))
+                .unwrap();
+        }
+        // each ended track went to the learner; three more fit the budget of 3 open
+        assert_eq!(segments.len(), 3);
+        assert_eq!(segments[0].observations.len(), 4);
+        let mut more = rows(3, 0.0, 2);
+        more.extend(rows(4, 0.0, 2));
+        more.extend(rows(5, 0.0, 2));
+        intake.take(1, 0, &more, now, &mut |_| ()).unwrap();
+        // an ended track's rows sent again are duplicates
+        let again = intake.take(1, 0, &rows(0, 0.0, 5), now, &mut |_| ());
+        assert_eq!(again.unwrap().duplicates, 5);
+        // a track that comes back with new rows opens again: over the budget now
+        let back = intake.take(1, 0, &rows(0, 0.0, 6), now, &mut |_| ());
+        assert_eq!(back.unwrap_err().field, Field::Tracks);
+    }
+
+    #[test]
     fn quiet_tracks_and_clients_are_dropped() {
         let mut intake = Intake::new(Budgets {
             track_timeout: Duration::from_secs(5),
@@ -441,7 +519,9 @@ mod tests {
         intake
             .take(1, 0, &rows(1, 0.0, 5), now, &mut |s| segments.push(s))
             .unwrap();
-        intake.take(2, 0, &rows(1, 0.0, 2), now, &mut |_| ()).unwrap();
+        intake
+            .take(2, 0, &rows(1, 0.0, 2), now, &mut |_| ())
+            .unwrap();
         intake.expire(now + Duration::from_secs(4), &mut |s| segments.push(s));
         assert_eq!((intake.clients(), intake.tracks()), (2, 2));
         intake.expire(now + Duration::from_secs(6), &mut |s| segments.push(s));
@@ -461,7 +541,9 @@ mod tests {
         });
         let now = Instant::now();
         for c in 0..2 {
-            intake.take(c, 0, &rows(1, 0.0, 2), now, &mut |_| ()).unwrap();
+            intake
+                .take(c, 0, &rows(1, 0.0, 2), now, &mut |_| ())
+                .unwrap();
         }
         assert_eq!(
             intake
@@ -471,6 +553,10 @@ mod tests {
             Status::OverBudget
         );
         let later = now + Duration::from_secs(10);
-        assert!(intake.take(9, 0, &rows(1, 0.0, 2), later, &mut |_| ()).is_ok());
+        assert!(
+            intake
+                .take(9, 0, &rows(1, 0.0, 2), later, &mut |_| ())
+                .is_ok()
+        );
     }
 }

@@ -121,10 +121,7 @@ impl Learner {
                 waiting: HashMap::new(),
                 waiting_rows: 0,
                 oldest: None,
-                held: guard::HeldSample::new(
-                    settings.guards.held_rows,
-                    settings.guards.held_every,
-                ),
+                held: guard::HeldSample::new(settings.guards.held_rows, settings.guards.held_every),
                 rows: s.rows,
                 saved_version: s.version,
             });
@@ -230,7 +227,10 @@ impl Learner {
             let before = online.clone();
             online.update(&batch).map_err(|e| e.to_string())?;
             let candidate = online.to_map().map_err(|e| e.to_string())?;
-            if let Some(why) = m.held.refuses(&m.current, &candidate, guards.max_score_drop) {
+            if let Some(why) = m
+                .held
+                .refuses(&m.current, &candidate, guards.max_score_drop)
+            {
                 warn!(map = %m.name, "learned version refused: {why}");
                 *online = before;
                 return Ok(None);

@@ -120,6 +120,10 @@ impl Learning {
                 count_scale: None,
             };
             if let Some(dir) = &settings.dir {
+                let stale = snapshots::remove_temporaries(dir, name);
+                if stale > 0 {
+                    info!(map = %name, files = stale, "removed temporary files of an interrupted snapshot");
+                }
                 let mut skipped = Vec::new();
                 let found = snapshots::newest(dir, name, &mut skipped);
                 for s in skipped {
@@ -194,7 +198,9 @@ impl Learning {
         let (tx, dropped) = (&self.tx, &mut self.dropped);
         let taken = self
             .intake
-            .take(client, i, rows, Instant::now(), &mut |s| send(tx, dropped, s))?;
+            .take(client, i, rows, Instant::now(), &mut |s| {
+                send(tx, dropped, s)
+            })?;
         Ok(ObserveReply {
             accepted: taken.accepted,
             duplicates: taken.duplicates,

@@ -95,6 +95,23 @@ pub(crate) fn versions(dir: &Path, name: &str) -> Vec<u32> {
     v
 }
 
+/// Remove the temporary files of `name` that a write killed half-way left in `dir`.
+pub(crate) fn remove_temporaries(dir: &Path, name: &str) -> usize {
+    let Ok(entries) = fs::read_dir(dir) else {
+        return 0;
+    };
+    let prefix = format!("{name}.v");
+    entries
+        .filter_map(|e| e.ok())
+        .filter(|e| {
+            e.file_name()
+                .to_str()
+                .is_some_and(|f| f.starts_with(&prefix) && f.ends_with(".tmp"))
+        })
+        .filter(|e| fs::remove_file(e.path()).is_ok())
+        .count()
+}
+
 /// The newest version of `name` in `dir` that loads (its checksum and checks pass),
 /// with what was saved beside it; the files that failed, with why, in `skipped`.
 pub(crate) fn newest(
@@ -130,7 +147,10 @@ fn read_state(path: &Path, v: u32) -> Saved {
         && version.parse() == Ok(v)
     {
         saved.rows = rows.parse().unwrap_or(0);
-        saved.count_scale = scale.parse().ok().filter(|c: &f64| c.is_finite() && *c > 0.0);
+        saved.count_scale = scale
+            .parse()
+            .ok()
+            .filter(|c: &f64| c.is_finite() && *c > 0.0);
     }
     saved
 }
@@ -165,7 +185,10 @@ mod tests {
         let mut skipped = Vec::new();
         let (back, saved) = newest(dir.path(), "hall", &mut skipped).unwrap();
         assert_eq!(back.locations(), map.locations());
-        assert_eq!((saved.version, saved.rows, saved.count_scale), (5, 500, Some(40.5)));
+        assert_eq!(
+            (saved.version, saved.rows, saved.count_scale),
+            (5, 500, Some(40.5))
+        );
         // a damaged newest file is skipped (checksum), the one before it is loaded
         let p = file(dir.path(), "hall", 5, "cliff");
         let mut bytes = fs::read(&p).unwrap();
@@ -175,7 +198,11 @@ mod tests {
         let (_, saved) = newest(dir.path(), "hall", &mut skipped).unwrap();
         assert_eq!(saved.version, 4);
         assert_eq!(skipped.len(), 1);
-        assert!(skipped[0].contains("hall.v00000005.cliff"), "{}", skipped[0]);
+        assert!(
+            skipped[0].contains("hall.v00000005.cliff"),
+            "{}",
+            skipped[0]
+        );
         // no temporary file is left behind
         let names: Vec<String> = fs::read_dir(dir.path())
             .unwrap()

@@ -34,6 +34,32 @@ impl Daemon {
             };
             any = true;
             let h = *req.header();
+            if h.version == PROTOCOL_VERSION && h.kind == protocol::KIND_OBSERVE {
+                let client = super::observe::remote_client(&h);
+                let answer = super::observe::observe(
+                    &mut self.learning,
+                    &self.registry,
+                    client,
+                    &h,
+                    req.rows(),
+                );
+                let sent = match answer {
+                    Ok(reply) => {
+                        self.stats.served += 1;
+                        let mut rh = super::respond::response_header(&h, Default::default());
+                        reply.write_to(&mut rh);
+                        req.reply(&rh, &[])
+                    }
+                    Err(rej) => {
+                        self.stats.rejected += 1;
+                        req.reject(&rej)
+                    }
+                };
+                if !sent {
+                    self.stats.failed += 1;
+                }
+                continue;
+            }
             slot.header = h;
             let decoded = decode(
                 &self.registry,

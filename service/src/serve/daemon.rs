@@ -59,8 +59,7 @@ impl Daemon {
         settings.check()?;
         let l = settings.limits;
         let words = l.max_payload_words();
-        let mut registry =
-            Registry::load(&settings.maps, TablePolicy::from_settings(&settings))?;
+        let mut registry = Registry::load(&settings.maps, TablePolicy::from_settings(&settings))?;
         let learning = crate::learn::Learning::start(
             &settings.learn,
             &mut registry,
