@@ -467,3 +467,90 @@ fn killed_at_random_points_while_learning_the_daemon_resumes_from_its_newest_sna
         "learning went on across the kills: version {resumed}"
     );
 }
+
+/// A binary of the workspace beside `cliffd` (`cargo test --workspace` builds them all).
+fn workspace_exe(name: &str) -> std::path::PathBuf {
+    let exe = std::path::PathBuf::from(env!("CARGO_BIN_EXE_cliffd")).with_file_name(name);
+    assert!(
+        exe.exists(),
+        "{} is missing: run the tests with --workspace, or build it first",
+        exe.display()
+    );
+    exe
+}
+
+#[test]
+fn cliff_observe_streams_a_recording_at_the_daemons_pace_or_at_a_rate() {
+    let ns = Namespace::new("learn_cli");
+    let _daemon = Daemon::start(
+        &ns,
+        &[
+            "--map",
+            &thor1_map(),
+            "--learn",
+            "thor1",
+            "--observe-rate",
+            "500",
+        ],
+    );
+    let rows: usize = thor1_round2().iter().map(|t| t.rows.len()).sum();
+    let file = shared_data("thor1/exp-1-run-2.csv").display().to_string();
+    let observe = |extra: &[&str]| {
+        let start = Instant::now();
+        let out = std::process::Command::new(workspace_exe("cliff"))
+            .args([
+                "observe", "--map", "thor1", "--tracks", &file, "--format", "thor",
+            ])
+            .args(["--service", SERVICE, "--prefix", &ns.prefix, "--quiet"])
+            .args(extra)
+            .output()
+            .expect("run cliff observe");
+        let text = String::from_utf8_lossy(&out.stdout).to_string();
+        assert!(
+            out.status.success(),
+            "{text}{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        (text, start.elapsed())
+    };
+    // as fast as accepted: over the 500 rows per second, requests are sent again (and
+    // made smaller than the 512 rows asked for)
+    let (text, took) = observe(&[]);
+    assert!(
+        text.contains(&format!("observed {rows} rows"))
+            && text.contains(&format!("{rows} taken, 0 duplicates")),
+        "{text}"
+    );
+    let retries = |text: &str| -> u64 {
+        let before = text.split(" retries").next().unwrap();
+        before.rsplit(' ').next().unwrap().parse().unwrap()
+    };
+    assert!(retries(&text) > 0, "{text}");
+    assert!(
+        took.as_secs_f64() > (rows as f64 / 500.0 - 1.0),
+        "{took:?} for {rows} rows"
+    );
+    // another run is another client (its people are new to the daemon): at a rate below
+    // the budget, nothing is refused
+    let (text, took) = observe(&["--rate", "450"]);
+    assert!(
+        text.contains(&format!("{rows} taken, 0 duplicates")),
+        "{text}"
+    );
+    assert_eq!(retries(&text), 0, "{text}");
+    assert!(
+        took.as_secs_f64() >= rows as f64 / 450.0 * 0.9,
+        "{took:?} for {rows} rows at 450/s"
+    );
+    // a map that is not learned is an error naming it
+    let out = std::process::Command::new(workspace_exe("cliff-observe"))
+        .args(["--map", "elsewhere", "--tracks", &file, "--format", "thor"])
+        .args(["--service", SERVICE, "--prefix", &ns.prefix, "--quiet"])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success() && err.contains("'elsewhere'") && err.contains("unknown-map"),
+        "{err}"
+    );
+}

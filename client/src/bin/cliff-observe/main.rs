@@ -162,6 +162,8 @@ fn run(a: Args) -> Result<(), String> {
     let mut rows: Vec<Observation> = Vec::with_capacity(a.rows_per_request);
     let mut sent = 0usize;
     let mut last_progress = Instant::now();
+    // lowered when a request holds more rows than the daemon's budget lets through at once
+    let mut per_request = a.rows_per_request;
     while sent < feed.len() {
         if let Some(rate) = a.rate {
             // the rows sent so far may not run ahead of the rate
@@ -172,10 +174,8 @@ fn run(a: Args) -> Result<(), String> {
         }
         let n = match a.rate {
             // at low rates, requests of about a tenth of a second's rows
-            Some(rate) => a
-                .rows_per_request
-                .min(((rate / 10.0).ceil() as usize).max(1)),
-            None => a.rows_per_request,
+            Some(rate) => per_request.min(((rate / 10.0).ceil() as usize).max(1)),
+            None => per_request,
         };
         feed.request(sent, n, &mut rows);
         request.clear();
@@ -200,6 +200,10 @@ fn run(a: Args) -> Result<(), String> {
                         "the daemon has taken nothing for {} s: {rej}",
                         a.give_up_s
                     ));
+                }
+                if rej.field == Field::Rows && rej.limit > 0 {
+                    // at most half of what the budget lets through in a second
+                    per_request = per_request.min((rej.limit as usize / 2).max(1));
                 }
                 // rows come back as the budget refills; tracks and memory as they end
                 let pause = if rej.field == Field::Rows { 10 } else { 100 };
