@@ -554,3 +554,162 @@ fn cliff_observe_streams_a_recording_at_the_daemons_pace_or_at_a_rate() {
         "{err}"
     );
 }
+
+#[test]
+fn the_c_abi_observes_and_reports_the_map_version() {
+    use cliff_client::ffi::*;
+    use std::ffi::{CStr, CString};
+    let ns = Namespace::new("learn_c");
+    let _daemon = Daemon::start(
+        &ns,
+        &[
+            "--map",
+            &thor1_map(),
+            "--learn",
+            "thor1",
+            "--observe-rate",
+            "1000000",
+            "--learn-every-rows",
+            "1000000",
+            "--learn-every-s",
+            "0.3",
+            "--learn-held-rows",
+            "0",
+        ],
+    );
+    let service = CString::new(SERVICE).unwrap();
+    let prefix = CString::new(ns.prefix.clone()).unwrap();
+    let map = CString::new("thor1").unwrap();
+    let mut client = std::ptr::null_mut();
+    // SAFETY: valid strings and out pointer
+    assert_eq!(
+        unsafe { cliff_client_connect(service.as_ptr(), prefix.as_ptr(), &mut client) },
+        CLIFF_OK
+    );
+    let tracks = thor1_round2();
+    let mut total = 0u32;
+    for (id, tr) in tracks.iter().enumerate() {
+        let col = |f: fn(&cliff::tracks::Row) -> f64| tr.rows.iter().map(f).collect::<Vec<f64>>();
+        let (t, x, y, s, h) = (
+            col(|r| r.t),
+            col(|r| r.position.x),
+            col(|r| r.position.y),
+            col(|r| r.speed),
+            col(|r| r.angle),
+        );
+        let mut out = CliffObserved::default();
+        for _ in 0..2 {
+            // SAFETY: every array holds n doubles
+            let code = unsafe {
+                cliff_observe(
+                    client,
+                    map.as_ptr(),
+                    id as u32,
+                    t.len(),
+                    t.as_ptr(),
+                    x.as_ptr(),
+                    y.as_ptr(),
+                    s.as_ptr(),
+                    h.as_ptr(),
+                    1,
+                    &mut out,
+                )
+            };
+            assert_eq!(code, CLIFF_OK);
+        }
+        // the second time every row is a duplicate
+        assert_eq!((out.accepted, out.duplicates), (0, t.len() as u32));
+        total += t.len() as u32;
+    }
+    assert!(total > 1000);
+    // a map that is not served: rejected with the status named
+    let other = CString::new("elsewhere").unwrap();
+    let (t, x, y) = ([0.0], [1.0], [1.0]);
+    let mut out = CliffObserved::default();
+    // SAFETY: one double each; speed and heading NULL
+    let code = unsafe {
+        cliff_observe(
+            client,
+            other.as_ptr(),
+            1,
+            1,
+            t.as_ptr(),
+            x.as_ptr(),
+            y.as_ptr(),
+            std::ptr::null(),
+            std::ptr::null(),
+            0,
+            &mut out,
+        )
+    };
+    assert_eq!(code, CLIFF_ERR_REJECTED);
+    // SAFETY: a static string
+    assert_eq!(
+        unsafe { CStr::from_ptr(cliff_status_name(out.status)) }
+            .to_str()
+            .unwrap(),
+        "unknown-map"
+    );
+
+    // predictions name the version that answered: a learned one soon, 0 when pinned
+    let mut p = default_params();
+    p.k = 5;
+    // SAFETY: a valid map name and params
+    let request = unsafe { cliff_request_new(map.as_ptr(), &p) };
+    let (t, x, y, s, h) = ([0.0], [1.0], [2.0], [1.2], [0.2]);
+    // SAFETY: one double each
+    assert_eq!(
+        unsafe {
+            cliff_request_add_agent(
+                request,
+                1,
+                t.as_ptr(),
+                x.as_ptr(),
+                y.as_ptr(),
+                s.as_ptr(),
+                h.as_ptr(),
+            )
+        },
+        CLIFF_OK
+    );
+    let mut pred = std::mem::MaybeUninit::<CliffPrediction>::uninit();
+    let end = Instant::now() + Duration::from_secs(20);
+    loop {
+        // SAFETY: valid client, request and out
+        assert_eq!(
+            unsafe { cliff_predict(client, request, pred.as_mut_ptr()) },
+            CLIFF_OK
+        );
+        // SAFETY: valid client
+        if unsafe { cliff_client_map_version(client) } > 0 {
+            break;
+        }
+        assert!(Instant::now() < end, "no learned version within 20 s");
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    p.flags = CLIFF_FLAG_BASE_MAP;
+    // SAFETY: valid request and params
+    assert_eq!(unsafe { cliff_request_set_params(request, &p) }, CLIFF_OK);
+    // SAFETY: valid client, request and out
+    assert_eq!(
+        unsafe { cliff_predict(client, request, pred.as_mut_ptr()) },
+        CLIFF_OK
+    );
+    // SAFETY: valid client
+    assert_eq!(unsafe { cliff_client_map_version(client) }, 0);
+    // SAFETY: created above, freed once
+    unsafe {
+        cliff_request_free(request);
+        cliff_client_free(client);
+    }
+}
+
+/// `cliff_params_default`'s parameters.
+fn default_params() -> cliff_client::ffi::CliffParams {
+    let mut p = std::mem::MaybeUninit::uninit();
+    // SAFETY: writes a whole CliffParams
+    unsafe {
+        cliff_client::ffi::cliff_params_default(p.as_mut_ptr());
+        p.assume_init()
+    }
+}
