@@ -236,13 +236,11 @@ impl Daemon {
             .entries()
             .iter()
             .map(|m| {
-                let learning = self
-                    .settings
-                    .learn
-                    .maps
-                    .contains(&m.name)
-                    .then(|| format!(", learning, version {}", m.version))
-                    .unwrap_or_default();
+                let learning = if self.settings.learn.maps.contains(&m.name) {
+                    format!(", learning, version {}", m.version)
+                } else {
+                    String::new()
+                };
                 format!(
                     "{} ({} locations{learning})",
                     m.name,
