@@ -3,6 +3,7 @@
 
 use cliff_client::protocol::MAX_OBSERVE_ROWS;
 use cliff_client::{Observation, ObserveRequest};
+use numpy::PyUntypedArrayMethods;
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;

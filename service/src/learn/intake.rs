@@ -3,7 +3,7 @@
 //! ([`Intake`]).
 
 use std::collections::HashMap;
-use std::time::{Duration, Instant};
+use std::time::Instant;
 
 use cliff::map::build::Observation as MapObservation;
 use cliff::math::wrap_2pi;
@@ -362,12 +362,10 @@ fn cut(map: usize, client: ClientKey, track: u32, t: &mut TrackState, cap: usize
 /// Ended tracks kept (until quiet) per open track of the budget.
 const ENDED_PER_OPEN: usize = 4;
 
-/// How long a quiet track is kept by default.
-pub(crate) const DEFAULT_TRACK_TIMEOUT: Duration = Duration::from_secs(5);
-
 #[cfg(test)]
 mod tests {
     use super::*;
+    use std::time::Duration;
 
     fn budgets() -> Budgets {
         Budgets {

@@ -1,10 +1,10 @@
 //! Maps that learn while they serve (`cliffd --learn NAME`): observations in, a
 //! background learner, new versions swapped in, snapshots on disk. One part per file:
 //!
-//! * `settings.rs`: [`LearnSettings`] and the per-client [`Budgets`];
+//! * `settings.rs`: [`LearnSettings`], the per-client [`Budgets`] and the [`Guards`];
 //! * `intake.rs`: observations in, on the serving thread: budgets, deduplication by
 //!   (client, track, time), tracks cut into segments, quiet clients dropped;
-//! * `guard.rs`: the [`Guards`] between observations and the served map (a track's and a
+//! * `guard.rs`: the guards between observations and the served map (a track's and a
 //!   client's weight in an update capped, new versions checked on held-out rows);
 //! * `learner.rs`: the learner thread (online update, new versions, snapshots);
 //! * `snapshots.rs`: learned maps on disk, written atomically, the newest good one found
@@ -33,9 +33,8 @@ use tracing::{info, warn};
 use crate::registry::{Registry, TablePolicy};
 use crate::settings::StartError;
 
-pub use guard::Guards;
 pub(crate) use intake::ClientKey;
-pub use settings::{Budgets, LearnSettings};
+pub use settings::{Budgets, Guards, LearnSettings};
 
 use intake::{Intake, Segment};
 use learner::{Learner, Shared, Start};

@@ -1,11 +1,11 @@
 //! What a learning daemon learns and how: the maps, the per-client [`Budgets`] of
-//! observations, and the learner's pace ([`LearnSettings`]).
+//! observations, the [`Guards`], and the learner's pace ([`LearnSettings`]).
 
 use std::path::PathBuf;
 use std::time::Duration;
 
-use super::guard::Guards;
-use super::intake::DEFAULT_TRACK_TIMEOUT;
+/// How long a quiet track is kept by default.
+pub(crate) const DEFAULT_TRACK_TIMEOUT: Duration = Duration::from_secs(5);
 
 /// Per-client budgets of observations, and how tracks are cut for the learner. Every
 /// bound holds per client; the number of clients is bounded too, so the intake's memory
@@ -152,6 +152,58 @@ impl LearnSettings {
             if self.maps[..i].contains(m) {
                 return Err(format!("map '{m}' is learned twice"));
             }
+        }
+        Ok(())
+    }
+}
+
+/// The guards' settings.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Guards {
+    /// Rows of one track in one update at most (a longer track is thinned evenly).
+    pub track_rows: usize,
+    /// One client's rows in one update at most this share of the update (counted as
+    /// at least `every_rows` rows, so that a client alone is capped too); 1 turns the cap
+    /// off.
+    pub client_share: f64,
+    /// Rows held out (never learned) to judge new versions; 0 turns the check off.
+    pub held_rows: usize,
+    /// Every this many segments, one is held out instead of learned.
+    pub held_every: usize,
+    /// A new version whose mean log-likelihood on the held rows is this much (nats)
+    /// below the current version's is not served.
+    pub max_score_drop: f64,
+}
+
+impl Default for Guards {
+    fn default() -> Self {
+        Guards {
+            track_rows: 256,
+            client_share: 0.5,
+            held_rows: 4096,
+            held_every: 10,
+            max_score_drop: 0.05,
+        }
+    }
+}
+
+impl Guards {
+    /// `Err` naming the first setting out of range.
+    pub fn check(&self) -> Result<(), String> {
+        if self.track_rows == 0 || self.held_every == 0 {
+            return Err("track rows per update and held-out spacing must be at least 1".into());
+        }
+        if !(self.client_share > 0.0 && self.client_share <= 1.0) {
+            return Err(format!(
+                "client share {} must be in (0, 1]",
+                self.client_share
+            ));
+        }
+        if !(self.max_score_drop.is_finite() && self.max_score_drop >= 0.0) {
+            return Err(format!(
+                "score drop {} must be finite and not negative",
+                self.max_score_drop
+            ));
         }
         Ok(())
     }
