@@ -59,6 +59,10 @@
 // (`CliffPrediction.scores`).
 #define CLIFF_FLAG_SCORES 1
 
+// `CliffParams.flags` bit: predict on the map as the daemon loaded it, not on a version
+// it learned since (`cliffd --learn`).
+#define CLIFF_FLAG_BASE_MAP 2
+
 // `CliffParams.time_mode`: the map for the daemon's wall clock when the request
 // arrives (the default).
 #define CLIFF_TIME_NOW 0
@@ -130,6 +134,19 @@ typedef struct CliffPrediction {
   // samples of one prediction).
   const float *scores;
 } CliffPrediction;
+
+// What a learning daemon did with `cliff_observe`'s rows.
+typedef struct CliffObserved {
+  // Status code (0 ok; on `CLIFF_ERR_REJECTED` the reason: "over-budget" means nothing
+  // was taken, send again later; see `cliff_status_name`).
+  uint32_t status;
+  // Rows taken (new to the daemon).
+  uint32_t accepted;
+  // Rows the daemon had already (same client, track and time).
+  uint32_t duplicates;
+  // The learned map's version.
+  uint32_t map_version;
+} CliffObserved;
 
 #ifdef __cplusplus
 extern "C" {
@@ -267,6 +284,37 @@ void cliff_prediction_release(struct CliffClient *client);
 // # Safety
 // `client` is a valid client.
 int32_t cliff_client_reload_maps(struct CliffClient *client);
+
+// The version of the map that answered the last successful `cliff_predict` on this
+// client: 0 for the map as the daemon loaded it, one more for every version a learning
+// daemon (`cliffd --learn`) swapped in since. 0 before any prediction or for NULL.
+//
+// # Safety
+// `client` is null or valid.
+uint32_t cliff_client_map_version(const struct CliffClient *client);
+
+// Send `n` rows of one tracked person (track id `track`, chosen by the caller and
+// stable while it tracks them; oldest row first, times strictly increasing) to a daemon
+// that learns the map `map` (`cliffd --learn NAME`). `speed` and `heading` are both NULL
+// or both `n` doubles. `end` non-zero: the last row is the track's last (the person left
+// the view). A robot may send each person's whole recent history every time: the daemon
+// counts a row once per client, track and time. `*out` (when not NULL) gets the counts,
+// or on `CLIFF_ERR_REJECTED` the status.
+//
+// # Safety
+// `client` is valid; `map` is a NUL-terminated string; `t`, `x`, `y` (and `speed`,
+// `heading` when not NULL) point to `n` doubles each; `out` is null or valid.
+int32_t cliff_observe(struct CliffClient *client,
+                      const char *map,
+                      uint32_t track,
+                      size_t n,
+                      const double *t,
+                      const double *x,
+                      const double *y,
+                      const double *speed,
+                      const double *heading,
+                      int32_t end,
+                      struct CliffObserved *out);
 
 #ifdef __cplusplus
 }  // extern "C"

@@ -21,6 +21,10 @@
 //! The options beyond the paper, scores and the map of the time of day are fields of
 //! [`CliffParams`] (`speed_beta`, `coast`, `flags` with [`CLIFF_FLAG_SCORES`],
 //! `time_mode` and `time`); the scores come back in [`CliffPrediction::scores`].
+//!
+//! A daemon that learns its map (`cliffd --learn NAME`) takes tracked people's rows
+//! through [`cliff_observe`]; [`cliff_client_map_version`] says which version of the map
+//! answered the last prediction, and [`CLIFF_FLAG_BASE_MAP`] pins the map as loaded.
 
 use std::cell::RefCell;
 use std::ffi::{CStr, CString, c_char};
@@ -76,6 +80,10 @@ pub const CLIFF_METHOD_IMPROVED: u32 = 2;
 /// `CliffParams.flags` bit: the response carries a score per sample
 /// (`CliffPrediction.scores`).
 pub const CLIFF_FLAG_SCORES: u32 = 1;
+
+/// `CliffParams.flags` bit: predict on the map as the daemon loaded it, not on a version
+/// it learned since (`cliffd --learn`).
+pub const CLIFF_FLAG_BASE_MAP: u32 = 2;
 
 /// `CliffParams.time_mode`: the map for the daemon's wall clock when the request
 /// arrives (the default).
@@ -149,6 +157,8 @@ pub struct CliffPrediction {
 pub struct CliffClient {
     client: Client,
     held: Option<RawResponse>,
+    /// The map version of the last prediction (`cliff_client_map_version`).
+    map_version: u32,
 }
 
 /// Opaque request handle.
@@ -238,7 +248,7 @@ pub extern "C" fn cliff_last_error() -> *const c_char {
 /// The name of a status code (`"unknown-map"`, ...); a static string.
 #[unsafe(no_mangle)]
 pub extern "C" fn cliff_status_name(status: u32) -> *const c_char {
-    const NAMES: [&CStr; 19] = [
+    const NAMES: [&CStr; 21] = [
         c"ok",
         c"bad-version",
         c"unknown-map",
@@ -258,6 +268,8 @@ pub extern "C" fn cliff_status_name(status: u32) -> *const c_char {
         c"radius-too-large",
         c"busy",
         c"too-many-sessions",
+        c"over-budget",
+        c"not-learning",
     ];
     match Status::from_code(status) {
         Some(s) => NAMES[s.code() as usize].as_ptr(),
@@ -330,7 +342,11 @@ pub unsafe extern "C" fn cliff_client_connect(
     }
     match Client::connect_with(service, options) {
         Ok(client) => {
-            let b = Box::new(CliffClient { client, held: None });
+            let b = Box::new(CliffClient {
+                client,
+                held: None,
+                map_version: 0,
+            });
             // SAFETY: checked non-null
             unsafe { out.write(Box::into_raw(b)) };
             CLIFF_OK
@@ -382,7 +398,11 @@ pub unsafe extern "C" fn cliff_client_connect_zenoh(
     let config = config_file.as_deref().map(std::path::Path::new);
     match Client::connect_zenoh_with(&endpoints, config, &service, ClientOptions::default()) {
         Ok(client) => {
-            let b = Box::new(CliffClient { client, held: None });
+            let b = Box::new(CliffClient {
+                client,
+                held: None,
+                map_version: 0,
+            });
             // SAFETY: checked non-null
             unsafe { out.write(Box::into_raw(b)) };
             CLIFF_OK
@@ -619,6 +639,7 @@ pub unsafe extern "C" fn cliff_predict(
                 Answer::Buffered(h) => (*h, c.client.buffered_payload()),
             };
             let parts = split_payload(&h, payload);
+            c.map_version = h.map_version;
             pred = CliffPrediction {
                 request_id: h.request_id,
                 status: h.status,
@@ -708,6 +729,135 @@ pub unsafe extern "C" fn cliff_client_reload_maps(client: *mut CliffClient) -> i
     }
 }
 
+/// The version of the map that answered the last successful `cliff_predict` on this
+/// client: 0 for the map as the daemon loaded it, one more for every version a learning
+/// daemon (`cliffd --learn`) swapped in since. 0 before any prediction or for NULL.
+///
+/// # Safety
+/// `client` is null or valid.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn cliff_client_map_version(client: *const CliffClient) -> u32 {
+    // SAFETY: null or valid by contract
+    unsafe { client.as_ref() }.map_or(0, |c| c.map_version)
+}
+
+/// What a learning daemon did with `cliff_observe`'s rows.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Default)]
+pub struct CliffObserved {
+    /// Status code (0 ok; on `CLIFF_ERR_REJECTED` the reason: "over-budget" means nothing
+    /// was taken, send again later; see `cliff_status_name`).
+    pub status: u32,
+    /// Rows taken (new to the daemon).
+    pub accepted: u32,
+    /// Rows the daemon had already (same client, track and time).
+    pub duplicates: u32,
+    /// The learned map's version.
+    pub map_version: u32,
+}
+
+/// Send `n` rows of one tracked person (track id `track`, chosen by the caller and
+/// stable while it tracks them; oldest row first, times strictly increasing) to a daemon
+/// that learns the map `map` (`cliffd --learn NAME`). `speed` and `heading` are both NULL
+/// or both `n` doubles. `end` non-zero: the last row is the track's last (the person left
+/// the view). A robot may send each person's whole recent history every time: the daemon
+/// counts a row once per client, track and time. `*out` (when not NULL) gets the counts,
+/// or on `CLIFF_ERR_REJECTED` the status.
+///
+/// # Safety
+/// `client` is valid; `map` is a NUL-terminated string; `t`, `x`, `y` (and `speed`,
+/// `heading` when not NULL) point to `n` doubles each; `out` is null or valid.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn cliff_observe(
+    client: *mut CliffClient,
+    map: *const c_char,
+    track: u32,
+    n: usize,
+    t: *const f64,
+    x: *const f64,
+    y: *const f64,
+    speed: *const f64,
+    heading: *const f64,
+    end: i32,
+    out: *mut CliffObserved,
+) -> i32 {
+    // SAFETY: valid by contract
+    let Some(c) = (unsafe { client.as_mut() }) else {
+        return invalid("client is NULL");
+    };
+    // SAFETY: NUL-terminated by contract
+    let map = match unsafe { str_arg(map, "map") } {
+        Ok(m) => m,
+        Err(code) => return code,
+    };
+    if n == 0 || t.is_null() || x.is_null() || y.is_null() {
+        return invalid("an observation needs n > 0 rows and non-NULL t, x, y");
+    }
+    if speed.is_null() != heading.is_null() {
+        return invalid("give both speed and heading, or neither");
+    }
+    if n > protocol::MAX_OBSERVE_ROWS as usize {
+        return invalid(&format!(
+            "{n} rows, at most {} per call",
+            protocol::MAX_OBSERVE_ROWS
+        ));
+    }
+    let mut request = match crate::observe::ObserveRequest::new(map) {
+        Ok(r) => r,
+        Err(e) => return fail(&e),
+    };
+    // SAFETY: each points to n doubles by contract
+    let (t, x, y) = unsafe {
+        (
+            std::slice::from_raw_parts(t, n),
+            std::slice::from_raw_parts(x, n),
+            std::slice::from_raw_parts(y, n),
+        )
+    };
+    if speed.is_null() {
+        request.add_track(
+            track,
+            (0..n).map(|i| Observation::position(t[i], x[i], y[i])),
+        );
+    } else {
+        // SAFETY: both non-null and n doubles long by contract
+        let (s, h) = unsafe {
+            (
+                std::slice::from_raw_parts(speed, n),
+                std::slice::from_raw_parts(heading, n),
+            )
+        };
+        request.add_track(
+            track,
+            (0..n).map(|i| Observation::with_velocity(t[i], x[i], y[i], s[i], h[i])),
+        );
+    }
+    if end != 0 {
+        request.end_track();
+    }
+    c.held = None;
+    let mut got = CliffObserved::default();
+    let code = match c.client.observe(&request) {
+        Ok(r) => {
+            got.accepted = r.accepted;
+            got.duplicates = r.duplicates;
+            got.map_version = r.map_version;
+            CLIFF_OK
+        }
+        Err(e) => {
+            if let Error::Rejected(rej) = &e {
+                got.status = rej.status.code();
+            }
+            fail(&e)
+        }
+    };
+    // SAFETY: null or valid by contract
+    if let Some(o) = unsafe { out.as_mut() } {
+        *o = got;
+    }
+    code
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -718,6 +868,7 @@ mod tests {
         assert_eq!(CLIFF_METHOD_CVM, protocol::METHOD_CVM);
         assert_eq!(CLIFF_METHOD_IMPROVED, protocol::METHOD_IMPROVED);
         assert_eq!(CLIFF_FLAG_SCORES, protocol::FLAG_SCORES);
+        assert_eq!(CLIFF_FLAG_BASE_MAP, protocol::FLAG_BASE_MAP);
         assert_eq!(CLIFF_TIME_NOW, protocol::TIME_NOW);
         assert_eq!(CLIFF_TIME_AT, protocol::TIME_AT);
         assert_eq!(CLIFF_TIME_ALL_DAY, protocol::TIME_ALL_DAY);
@@ -725,7 +876,7 @@ mod tests {
 
     #[test]
     fn every_status_has_the_name_the_rust_side_gives_it() {
-        for c in 0..17 {
+        for c in 0..19 {
             let s = Status::from_code(c).unwrap();
             // SAFETY: cliff_status_name returns a static NUL-terminated string
             let name = unsafe { CStr::from_ptr(cliff_status_name(c)) };

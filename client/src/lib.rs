@@ -12,6 +12,8 @@
 //!   [`Prediction`] that borrows the response in shared memory (no copy);
 //! * `options.rs`: [`ClientOptions`] and the [`WaitMode`];
 //! * `request.rs`: the [`Request`] builder;
+//! * `observe.rs`: the [`ObserveRequest`] builder and [`Client::observe`], observations
+//!   for a daemon that learns its map;
 //! * `prediction.rs`: the [`Prediction`] view and one agent's [`AgentPrediction`];
 //! * `error.rs`: the [`Error`] of every call;
 //! * `ipc.rs`: what daemon and clients share on one host: [`DEFAULT_SERVICE`], the
@@ -64,6 +66,7 @@ mod error;
 pub mod ffi;
 mod ipc;
 pub mod legacy;
+mod observe;
 mod options;
 mod prediction;
 pub mod protocol;
@@ -78,10 +81,11 @@ pub use ipc::{
     ClientIpc, DEFAULT_SERVICE, PREFIX_ENV, PredictService, iceoryx_config, prefix_from_env,
     request_event_name, response_event_name,
 };
+pub use observe::ObserveRequest;
 pub use options::{ClientOptions, WaitMode};
 pub use prediction::{AgentPrediction, Prediction};
 pub use protocol::{
-    Field, KIND_RELOAD, Limits, LocalPredictor, MapTime, Observation, PROTOCOL_VERSION, Rejection,
-    RequestHeader, ResponseHeader, Status,
+    Field, KIND_RELOAD, Limits, LocalPredictor, MapTime, Observation, ObserveReply,
+    PROTOCOL_VERSION, Rejection, RequestHeader, ResponseHeader, Status,
 };
 pub use request::Request;

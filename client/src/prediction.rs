@@ -108,6 +108,12 @@ impl<'c> Prediction<'c> {
         self.header().request_id
     }
 
+    /// The version of the map that answered ([`ResponseHeader::map_version`]): 0 for the
+    /// map as loaded, one more for every learned version a learning daemon swapped in.
+    pub fn map_version(&self) -> u32 {
+        self.header().map_version
+    }
+
     /// `(agents, k, steps)`.
     pub fn shape(&self) -> (usize, usize, usize) {
         let h = self.header();

@@ -96,6 +96,22 @@ impl Request {
         self
     }
 
+    /// On the map as the daemon loaded it (or not, the default): a learning daemon
+    /// (`cliffd --learn`) otherwise answers with its newest learned version.
+    pub fn base_map(mut self, on: bool) -> Self {
+        self.set_base_map(on);
+        self
+    }
+
+    /// Set whether to predict on the map as the daemon loaded it ([`base_map`](Self::base_map)).
+    pub fn set_base_map(&mut self, on: bool) {
+        if on {
+            self.header.flags |= protocol::FLAG_BASE_MAP;
+        } else {
+            self.header.flags &= !protocol::FLAG_BASE_MAP;
+        }
+    }
+
     /// With the all-day map, whatever the time.
     pub fn all_day(mut self) -> Self {
         self.header.set_map_time(MapTime::AllDay);

@@ -325,7 +325,7 @@ pub fn encode_response(h: &ResponseHeader, payload: &[u32], out: &mut Vec<u8>) {
     out.reserve(RESPONSE_HEADER_BYTES + payload.len() * 4);
     put_common(out, h);
     put_u32(out, h.flags);
-    put_u32(out, h.reserved);
+    put_u32(out, h.map_version);
     for &w in payload {
         put_u32(out, w);
     }
@@ -379,7 +379,7 @@ pub fn decode_response(
         limit: r.u32(),
         awake_us: r.u32(),
         flags: 0,
-        reserved: 0,
+        map_version: 0,
     };
     if bytes.len() == COMMON_RESPONSE_BYTES {
         // a rejection in the layout every version reads (what a request of another
@@ -410,7 +410,7 @@ pub fn decode_response(
     let mut r = Reader { b: bytes, at: 0 };
     let mut h = read_common(&mut r);
     h.flags = r.u32();
-    h.reserved = r.u32();
+    h.map_version = r.u32();
     let need = if h.status == Status::Ok.code() {
         // in u64: a hostile header's shape must not overflow
         let samples = h.agents as u64 * h.k as u64;
@@ -642,7 +642,7 @@ mod tests {
             limit: 0,
             awake_us: 5,
             flags: 0,
-            reserved: 0,
+            map_version: 0,
         };
         let words = payload_words(2, 3, 4, false);
         let payload: Vec<u32> = (0..words as u32)

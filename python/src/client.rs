@@ -50,7 +50,7 @@ in python/, or `pip install ./python -C maturin.build-args=\"--features zenoh\"`
 ///     (1, 5, 30, 2)
 #[pyclass(module = "cliff_lhmp", frozen)]
 pub struct Client {
-    inner: Mutex<RustClient>,
+    pub(crate) inner: Mutex<RustClient>,
     service: String,
     deadline: Duration,
     /// The zenoh endpoints the client connected to (empty over iceoryx2, and when a

@@ -16,7 +16,7 @@ const COLUMNS: [&str; 5] = ["t", "x", "y", "speed", "heading"];
 
 /// One history as a float64 array: ndarrays of float64 as they are, anything else through
 /// `numpy.asarray(h, dtype=float64)`.
-fn as_f64_array<'py>(
+pub(crate) fn as_f64_array<'py>(
     py: Python<'py>,
     h: &Bound<'py, PyAny>,
     i: usize,

@@ -12,11 +12,12 @@
 //! - `online.rs`: `OnlineMap`, a map updated with batches of trajectories
 //! - `predict.rs`: in-process prediction, `predict` and `Map.predict`
 //! - `client.rs`: `Client` (and `Client.predict`), predictions from a running `cliffd`
+//! - `observe.rs`: `Client.observe`, observations for a `cliffd` that learns its map
 //! - `prediction.rs`: `Prediction`, the result of every `predict`
 //! - `evaluation.rs`: `evaluate` and its result `Evaluation`
 //!
-//! What those files share (they import these, and `Map` or `Prediction` where they
-//! take or return one; no two files import each other):
+//! What those files share (they import these, and `Map`, `Prediction` or `Client` where
+//! they take or return one; no two files import each other):
 //!
 //! - `predict_args.rs`: the keyword arguments of every `predict` (`predict_fn!`,
 //!   `PredictArgs`)
@@ -32,6 +33,7 @@ mod errors;
 mod evaluation;
 mod histories;
 mod map;
+mod observe;
 mod online;
 mod predict;
 mod predict_args;

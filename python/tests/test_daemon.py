@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import cliff_lhmp
-from conftest import SERVICE, THOR1_TRACKS, Daemon, new_prefix, remove_namespace
+from conftest import SERVICE, THOR1_MAP, THOR1_TRACKS, Daemon, new_prefix, remove_namespace
 from thor import read_people
 
 WALK = np.array([[0.0, -10.0, 0.5], [0.4, -9.5, 0.5], [0.8, -9.0, 0.5], [1.2, -8.5, 0.5]])
@@ -235,3 +235,42 @@ def test_exceptions_pickle_with_their_attributes():
     assert issubclass(cliff_lhmp.NoDaemon, ConnectionError)
     assert issubclass(cliff_lhmp.DaemonGone, ConnectionError)
     assert issubclass(cliff_lhmp.Rejected, ValueError)
+
+
+def test_observe_counts_each_row_once_and_predictions_name_the_learned_version(tmp_path):
+    prefix = new_prefix("l")
+    d = Daemon(prefix, [f"thor1={THOR1_MAP}"], tmp_path / "cliffd.log",
+               extra=["--learn", "thor1", "--observe-rate", "1000000", "--learn-every-s", "0.3",
+                      "--learn-held-rows", "0"]).start()
+    try:
+        client = d.client()
+        people = list(read_people(THOR1_TRACKS).values())
+        total = 0
+        for track, rows in enumerate(people):
+            # a robot's overlapping histories: the first half, then all rows (5 columns)
+            half = rows[: max(1, len(rows) // 2)]
+            first = client.observe("thor1", track, half)
+            second = client.observe("thor1", track, rows, end=True)
+            assert first["accepted"] == len(half) and first["duplicates"] == 0
+            assert second["accepted"] == len(rows) - len(half)
+            assert second["duplicates"] == len(half)
+            total += len(rows)
+        assert total > 1000
+        # positions only (3 columns) are taken as well
+        assert client.observe("thor1", 10_000, people[0][:, :3])["accepted"] == len(people[0])
+        with pytest.raises(cliff_lhmp.Rejected) as e:
+            client.observe("elsewhere", 1, WALK)
+        assert e.value.status == "unknown-map"
+        with pytest.raises(ValueError, match=r"got shape \(3, 4\)"):
+            client.observe("thor1", 1, np.zeros((3, 4)))
+        # the learned version comes within the learning interval
+        deadline = time.monotonic() + 20
+        version = 0
+        while version == 0:
+            assert time.monotonic() < deadline, "no learned version within 20 s"
+            time.sleep(0.1)
+            version = client.observe("thor1", 20_000, WALK)["map_version"]
+        assert version >= 1
+    finally:
+        d.stop()
+        remove_namespace(prefix)

@@ -14,6 +14,8 @@
 //! * `serve/`: the [`Daemon`] and its serving loop: iceoryx2 ports, requests in
 //!   (validation against the maps), responses out, reloads, old clients, housekeeping
 //!   (one part per file, listed in `serve/mod.rs`);
+//! * [`learn`]: maps that learn while they serve (`cliffd --learn`): observations in,
+//!   the background learner, new versions swapped in, snapshots;
 //! * `zenoh` (feature `zenoh`): the frontend for remote requests over a zenoh queryable,
 //!   validated and scheduled like local ones.
 //!
@@ -47,6 +49,7 @@
 //! resources are cleaned up once a second.
 #![warn(missing_docs)]
 
+pub mod learn;
 mod registry;
 mod scheduler;
 mod serve;

@@ -9,6 +9,7 @@ use std::time::Duration;
 
 use clap::Parser;
 use cliff_client::protocol::{Limits, MAX_HISTORY};
+use cliff_service::learn::{Budgets, Guards, LearnSettings};
 use cliff_service::{
     DEFAULT_CHUNK_POSITIONS, DEFAULT_TABLE_BUDGET, DEFAULT_TABLE_RADII, Daemon, MapSpec, Settings,
     available_cores,
@@ -117,6 +118,79 @@ struct Args {
     #[arg(long, default_value = "info")]
     log: String,
 
+    /// Learn this map from the observations clients send (repeatable; off by default):
+    /// a background thread folds tracked people into it with the online update and
+    /// swaps in a new version every --learn-every-rows rows or --learn-every-s seconds
+    /// (docs/learning.md).
+    #[arg(long = "learn", value_name = "NAME")]
+    learn: Vec<String>,
+
+    /// Directory of the learned maps' snapshots: written every --snapshot-every-s
+    /// seconds and at shutdown (atomically), and the newest good one resumed at start.
+    /// Without it learned versions live in memory only.
+    #[arg(long, value_name = "DIR")]
+    learn_dir: Option<PathBuf>,
+
+    /// A new learned version once this many rows wait.
+    #[arg(long, value_name = "ROWS", default_value_t = LearnSettings::default().every_rows)]
+    learn_every_rows: usize,
+
+    /// A new learned version once the oldest waiting row has waited this long.
+    #[arg(long, value_name = "SECONDS", default_value_t = LearnSettings::default().every.as_secs_f64())]
+    learn_every_s: f64,
+
+    /// Seconds between snapshots of the learned maps.
+    #[arg(long, value_name = "SECONDS", default_value_t = LearnSettings::default().snapshot_every.as_secs_f64())]
+    snapshot_every_s: f64,
+
+    /// Decay of a learned map's counts per update, in (0, 1] (1: every row keeps its weight).
+    #[arg(long, default_value_t = LearnSettings::default().decay)]
+    learn_decay: f64,
+
+    /// Moving samples that an observation ratio of 1 stands for in the served map (the
+    /// "busiest node" that `cliff map build` prints). Default: the busiest node of the
+    /// first update.
+    #[arg(long, value_name = "SAMPLES")]
+    learn_count_scale: Option<f64>,
+
+    /// Per client: new observation rows per second.
+    #[arg(long, value_name = "ROWS", default_value_t = Budgets::default().rows_per_s)]
+    observe_rate: f64,
+
+    /// Per client: open tracks.
+    #[arg(long, value_name = "TRACKS", default_value_t = Budgets::default().max_tracks)]
+    observe_tracks: usize,
+
+    /// Per client: rows held in open tracks, not yet learned.
+    #[arg(long, value_name = "ROWS", default_value_t = Budgets::default().max_rows_held)]
+    observe_rows_held: usize,
+
+    /// Rows per observe request (at most 4096).
+    #[arg(long, value_name = "ROWS", default_value_t = LearnSettings::default().max_observe_rows)]
+    max_observe_rows: u32,
+
+    /// Seconds after which a track without new rows is finished, and a client without
+    /// tracks forgotten.
+    #[arg(long, value_name = "SECONDS", default_value_t = Budgets::default().track_timeout.as_secs_f64())]
+    track_timeout_s: f64,
+
+    /// Guard: one client's share of an update, in (0, 1] (1: no cap).
+    #[arg(long, default_value_t = Guards::default().client_share)]
+    learn_client_share: f64,
+
+    /// Guard: rows of one track in one update.
+    #[arg(long, value_name = "ROWS", default_value_t = Guards::default().track_rows)]
+    learn_track_rows: usize,
+
+    /// Guard: a new version whose mean log-likelihood on held-out recent rows is this
+    /// much (nats) below the served version's is not swapped in.
+    #[arg(long, value_name = "NATS", default_value_t = Guards::default().max_score_drop)]
+    learn_max_score_drop: f64,
+
+    /// Guard: rows held out of learning to judge new versions (0: no check).
+    #[arg(long, value_name = "ROWS", default_value_t = Guards::default().held_rows)]
+    learn_held_rows: usize,
+
     /// Write the process id to this file once ready.
     #[arg(long)]
     pid_file: Option<PathBuf>,
@@ -149,7 +223,28 @@ struct Args {
     zenoh_max_message_bytes: Option<usize>,
 }
 
+/// A duration from seconds given on the command line; `Err` names the option.
+fn seconds(s: f64, option: &str) -> Result<Duration, String> {
+    if s.is_finite() && s > 0.0 && s < 1e9 {
+        Ok(Duration::from_secs_f64(s))
+    } else {
+        Err(format!(
+            "{option} {s}: must be a positive number of seconds"
+        ))
+    }
+}
+
 fn main() -> ExitCode {
+    match run() {
+        Ok(code) => code,
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+fn run() -> Result<ExitCode, String> {
     let args = Args::parse();
     let filter = tracing_subscriber::EnvFilter::try_from_default_env()
         .or_else(|_| tracing_subscriber::EnvFilter::try_new(&args.log))
@@ -170,14 +265,15 @@ fn main() -> ExitCode {
             && let Err(e) = signal_hook::flag::register_conditional_shutdown(sig, 1, flag.clone())
         {
             eprintln!("error: cannot install the signal handler: {e}");
-            return ExitCode::FAILURE;
+            return Ok(ExitCode::FAILURE);
         }
         if let Err(e) = signal_hook::flag::register(sig, flag.clone()) {
             eprintln!("error: cannot install the signal handler: {e}");
-            return ExitCode::FAILURE;
+            return Ok(ExitCode::FAILURE);
         }
     }
 
+    let learned = args.learn.clone();
     let settings = Settings {
         service: args.service.clone(),
         prefix: args.prefix.filter(|p| !p.is_empty()),
@@ -201,13 +297,38 @@ fn main() -> ExitCode {
         idle_spin: Duration::from_micros(args.idle_spin_us),
         cleanup_interval: Duration::from_millis(args.cleanup_interval_ms.max(1)),
         workers: args.workers,
+        learn: LearnSettings {
+            maps: learned.clone(),
+            dir: args.learn_dir,
+            budgets: Budgets {
+                rows_per_s: args.observe_rate,
+                max_tracks: args.observe_tracks,
+                max_rows_held: args.observe_rows_held,
+                track_timeout: seconds(args.track_timeout_s, "--track-timeout-s")?,
+                ..Budgets::default()
+            },
+            max_observe_rows: args.max_observe_rows,
+            every_rows: args.learn_every_rows,
+            every: seconds(args.learn_every_s, "--learn-every-s")?,
+            snapshot_every: seconds(args.snapshot_every_s, "--snapshot-every-s")?,
+            decay: args.learn_decay,
+            count_scale: args.learn_count_scale,
+            guards: Guards {
+                client_share: args.learn_client_share,
+                track_rows: args.learn_track_rows,
+                max_score_drop: args.learn_max_score_drop,
+                held_rows: args.learn_held_rows,
+                ..Guards::default()
+            },
+            ..LearnSettings::default()
+        },
     };
     let mut daemon = match Daemon::new(settings) {
         Ok(d) => d,
         Err(e) => {
             tracing::error!("{e}");
             eprintln!("error: {e}");
-            return ExitCode::FAILURE;
+            return Ok(ExitCode::FAILURE);
         }
     };
     #[cfg(feature = "zenoh")]
@@ -225,7 +346,7 @@ fn main() -> ExitCode {
             Err(e) => {
                 tracing::error!("{e}");
                 eprintln!("error: {e}");
-                return ExitCode::FAILURE;
+                return Ok(ExitCode::FAILURE);
             }
         }
     }
@@ -235,7 +356,7 @@ fn main() -> ExitCode {
         && let Err(e) = std::fs::write(p, format!("{}\n", std::process::id()))
     {
         eprintln!("error: cannot write the pid file {}: {e}", p.display());
-        return ExitCode::FAILURE;
+        return Ok(ExitCode::FAILURE);
     }
     println!("{}{remote_line}", daemon.ready_line());
     let _ = std::io::stdout().flush();
@@ -245,5 +366,17 @@ fn main() -> ExitCode {
         "cliffd stopped: {} requests served, {} rejected, {} responses not delivered",
         s.served, s.rejected, s.failed
     );
-    ExitCode::SUCCESS
+    if !learned.is_empty() {
+        let l = s.learn;
+        println!(
+            "cliffd learned: {} rows taken, {} duplicates, {} rows learned, {} versions, {} refused, {} snapshots",
+            l.accepted_rows,
+            l.duplicate_rows,
+            l.learned_rows,
+            l.versions,
+            l.refused_versions,
+            l.snapshots
+        );
+    }
+    Ok(ExitCode::SUCCESS)
 }

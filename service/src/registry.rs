@@ -40,6 +40,13 @@ pub(crate) struct MapEntry {
     pub set: MapSet,
     /// Largest radius a request may use (m).
     pub max_radius: f64,
+    /// The version served: 0 for the map as loaded, then one more for every learned
+    /// version swapped in ([`Registry::swap_learned`]).
+    pub version: u32,
+    /// The set as loaded from the file (or the built-in scene), which a request may pin
+    /// ([`FLAG_BASE_MAP`](cliff_client::protocol::FLAG_BASE_MAP)); `set` is this set until a
+    /// learned version replaces it.
+    pub base: MapSet,
 }
 
 impl MapEntry {
@@ -68,6 +75,18 @@ pub(crate) fn map_for_time(entry: &MapEntry, when: MapTime) -> &Arc<CliffMap> {
     }
     // the rule in-process callers use too
     when.map_in(&entry.set)
+}
+
+/// [`map_for_time`] on the map as loaded when `base` is set (a request that pins the base
+/// map of a learning daemon), else on the version served now.
+pub(crate) fn map_for_request(entry: &MapEntry, when: MapTime, base: bool) -> &Arc<CliffMap> {
+    if !base {
+        return map_for_time(entry, when);
+    }
+    if !entry.base.is_sliced() {
+        return entry.base.all_day();
+    }
+    when.map_in(&entry.base)
 }
 
 /// How maps are prepared: the radius limit, the table budget and the pinned radii.
@@ -189,8 +208,10 @@ impl Registry {
                 wire,
                 path: s.path.clone(),
                 map,
+                base: set.clone(),
                 set,
                 max_radius,
+                version: 0,
             });
         }
         Ok(Self {
@@ -234,6 +255,12 @@ impl Registry {
             match r {
                 Ok(set) => {
                     let e = &mut self.entries[i];
+                    e.base = set.clone();
+                    if e.version > 0 {
+                        // a learned version stays served; the file is its new base
+                        info!(map = %e.name, version = e.version, "base map reloaded, the learned version stays");
+                        continue;
+                    }
                     let map = Arc::clone(set.all_day());
                     e.max_radius = self.policy.max_radius(&map);
                     info!(map = %e.name, locations = map.locations().len(), max_radius = e.max_radius, slices = set.slices().len(), "map reloaded");
@@ -251,6 +278,15 @@ impl Registry {
             self.reloads.start(&self.entries, &self.policy);
         }
         Some((generation, first_error))
+    }
+
+    /// Serve `map` as version `version` of entry `i` (a learned map: one map, no slices).
+    /// Requests in flight keep the version they started on (they hold its `Arc`).
+    pub fn swap_learned(&mut self, i: usize, map: Arc<CliffMap>, version: u32) {
+        let e = &mut self.entries[i];
+        e.set = MapSet::single_arc(Arc::clone(&map));
+        e.map = map;
+        e.version = version;
     }
 
     /// Completed reloads.

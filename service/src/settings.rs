@@ -95,6 +95,8 @@ pub struct Settings {
     pub workers: usize,
     /// How often resources of dead processes (clients killed with SIGKILL) are removed.
     pub cleanup_interval: Duration,
+    /// Maps that learn from observations, and how (none by default).
+    pub learn: crate::learn::LearnSettings,
 }
 
 impl Default for Settings {
@@ -114,6 +116,7 @@ impl Default for Settings {
             idle_spin: Duration::from_millis(1),
             cleanup_interval: Duration::from_secs(1),
             workers: available_cores(),
+            learn: crate::learn::LearnSettings::default(),
         }
     }
 }

@@ -34,6 +34,18 @@ pub const KIND_PREDICT: u32 = 0;
 /// first map that failed, which keeps its old version).
 pub const KIND_RELOAD: u32 = 1;
 
+/// [`RequestHeader::kind`](super::RequestHeader::kind): observations for a map the daemon
+/// learns (`cliffd --learn`): the rows are tracked people's positions, each row's `agent`
+/// their track id, answered with an empty response whose header counts the rows taken
+/// ([`ObserveReply`](super::ObserveReply)). A daemon that does not know this kind
+/// answers [`Status::UnknownKind`](super::Status::UnknownKind); see
+/// [`validate_observe`](super::validate_observe).
+pub const KIND_OBSERVE: u32 = 2;
+
+/// The most rows one observe request may carry ([`KIND_OBSERVE`]); a daemon may accept
+/// fewer (`cliffd --max-observe-rows`).
+pub const MAX_OBSERVE_ROWS: u32 = 4096;
+
 /// [`RequestHeader::method`](super::RequestHeader::method) for CLiFF-LHMP.
 pub const METHOD_CLIFF: u32 = 0;
 /// [`RequestHeader::method`](super::RequestHeader::method) for the constant-velocity model.
@@ -48,10 +60,15 @@ pub const METHOD_IMPROVED: u32 = 2;
 /// sample after the lengths ([`cliff::predict::Options::scores`]). A response to
 /// [`METHOD_IMPROVED`] always does (its preset scores the samples): read the response's flag.
 pub const FLAG_SCORES: u32 = 1;
+/// [`RequestHeader::flags`](super::RequestHeader::flags) bit: predict on the map as the daemon
+/// loaded it, not on a version it learned since (`cliffd --learn`); the response's
+/// [`map_version`](super::ResponseHeader::map_version) is then 0. A daemon from before
+/// learning refuses the bit (`bad-value (flags)`).
+pub const FLAG_BASE_MAP: u32 = 2;
 /// Every [`RequestHeader::flags`](super::RequestHeader::flags) bit this version knows; a request
 /// with another bit set is refused ([`Status::BadValue`](super::Status::BadValue),
 /// [`Field::Flags`](super::Field::Flags)).
-pub const KNOWN_FLAGS: u32 = FLAG_SCORES;
+pub const KNOWN_FLAGS: u32 = FLAG_SCORES | FLAG_BASE_MAP;
 
 /// [`RequestHeader::time_mode`](super::RequestHeader::time_mode): the map for the daemon's wall
 /// clock when the request arrives (the default).
@@ -75,6 +92,13 @@ pub const HEADING_PAPER: u32 = 1;
 /// When every row of an agent has it, the observed velocity comes from these columns (the reference
 /// rule); when none has it, from the timestamped positions.
 pub const FLAG_VELOCITY: u32 = 1;
+
+/// [`Observation::flags`](super::Observation::flags) bit, in observe requests only
+/// ([`KIND_OBSERVE`]): the row is its track's last (the person left the tracker's view),
+/// so the daemon learns the track now instead of waiting for it to go quiet, and it no
+/// longer counts as open. Rows of the track sent again later are still recognised as
+/// seen (for the track timeout).
+pub const FLAG_TRACK_END: u32 = 2;
 
 /// The wire code of a method ([`RequestHeader::method`](super::RequestHeader::method)).
 pub fn method_code(method: Method) -> u32 {

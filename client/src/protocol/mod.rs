@@ -37,7 +37,9 @@
 //! * `status.rs`: [`Status`], [`Field`] and [`Rejection`];
 //! * `limits.rs`: [`Limits`], a daemon's per-request limits;
 //! * `validate.rs`: the request validation, [`decode_request`];
-//! * `local.rs`: the in-process reference, [`LocalPredictor`].
+//! * `local.rs`: the in-process reference, [`LocalPredictor`];
+//! * `observe.rs`: observe requests ([`KIND_OBSERVE`]) for a daemon that learns its
+//!   map, [`validate_observe`] and the answer's counts, [`ObserveReply`].
 //!
 //! The same messages as little-endian bytes (for zenoh) are in [`crate::wire`].
 
@@ -45,20 +47,22 @@ mod codes;
 mod limits;
 mod local;
 mod map_time;
+mod observe;
 mod request;
 mod response;
 mod status;
 mod validate;
 
 pub use codes::{
-    FLAG_SCORES, FLAG_VELOCITY, HEADING_CIRCULAR_MEAN, HEADING_PAPER, KIND_PREDICT, KIND_RELOAD,
-    KNOWN_FLAGS, MAP_NAME_BYTES, MAX_HISTORY, METHOD_CLIFF, METHOD_CVM, METHOD_IMPROVED,
-    PROTOCOL_VERSION, TIME_ALL_DAY, TIME_AT, TIME_NOW, ipc_service_name, method_code,
-    method_from_code,
+    FLAG_BASE_MAP, FLAG_SCORES, FLAG_TRACK_END, FLAG_VELOCITY, HEADING_CIRCULAR_MEAN,
+    HEADING_PAPER, KIND_OBSERVE, KIND_PREDICT, KIND_RELOAD, KNOWN_FLAGS, MAP_NAME_BYTES,
+    MAX_HISTORY, MAX_OBSERVE_ROWS, METHOD_CLIFF, METHOD_CVM, METHOD_IMPROVED, PROTOCOL_VERSION,
+    TIME_ALL_DAY, TIME_AT, TIME_NOW, ipc_service_name, method_code, method_from_code,
 };
 pub use limits::Limits;
 pub use local::LocalPredictor;
 pub use map_time::MapTime;
+pub use observe::{ObserveReply, validate_observe};
 pub use request::{Observation, RequestHeader, encode_map_name};
 pub use response::{ResponseHeader, payload_words, scores_in_response};
 pub use status::{Field, Rejection, Status};

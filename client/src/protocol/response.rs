@@ -40,8 +40,10 @@ pub struct ResponseHeader {
     pub awake_us: u32,
     /// For a batch: [`FLAG_SCORES`] when the payload carries the scores.
     pub flags: u32,
-    /// Zero (keeps the header free of padding).
-    pub reserved: u32,
+    /// The version of the map that answered: 0 for the map as loaded (or reloaded), then
+    /// one more for every learned version swapped in (`cliffd --learn`). Daemons before
+    /// learning sent 0 here (the field was reserved).
+    pub map_version: u32,
 }
 
 impl ResponseHeader {

@@ -57,6 +57,14 @@ pub enum Status {
     /// The daemon serves as many remote sessions with requests in flight as it allows
     /// (`limit`); retry later.
     TooManySessions = 18,
+    /// An observe request ([`KIND_OBSERVE`](super::KIND_OBSERVE)) is over the client's
+    /// budget: rows per second ([`Field::Rows`]), open tracks ([`Field::Tracks`]) or rows
+    /// held ([`Field::Memory`]); `limit` holds the budget. Nothing of the request was
+    /// taken; retry later, or with fewer rows or tracks.
+    OverBudget = 19,
+    /// An observe request names a map the daemon serves but does not learn
+    /// (`cliffd --learn NAME`).
+    NotLearning = 20,
 }
 
 impl Status {
@@ -83,6 +91,8 @@ impl Status {
             16 => RadiusTooLarge,
             17 => Busy,
             18 => TooManySessions,
+            19 => OverBudget,
+            20 => NotLearning,
             _ => return None,
         })
     }
@@ -115,6 +125,8 @@ impl Status {
             RadiusTooLarge => "radius-too-large",
             Busy => "busy",
             TooManySessions => "too-many-sessions",
+            OverBudget => "over-budget",
+            NotLearning => "not-learning",
         }
     }
 }
@@ -171,6 +183,12 @@ pub enum Field {
     TimeMode = 19,
     /// `time` (the time that picks the map, not a row's time).
     MapTime = 20,
+    /// The rows of an observe request (their number, or rows per second of a budget).
+    Rows = 21,
+    /// A client's open tracks.
+    Tracks = 22,
+    /// The rows a client's open tracks hold in the daemon.
+    Memory = 23,
 }
 
 impl Field {
@@ -198,6 +216,9 @@ impl Field {
             18 => Flags,
             19 => TimeMode,
             20 => MapTime,
+            21 => Rows,
+            22 => Tracks,
+            23 => Memory,
             _ => None,
         }
     }
@@ -227,6 +248,9 @@ impl Field {
             Flags => "flags",
             TimeMode => "time_mode",
             MapTime => "map time",
+            Rows => "rows",
+            Tracks => "tracks",
+            Memory => "memory",
         }
     }
 }
@@ -309,15 +333,15 @@ mod tests {
 
     #[test]
     fn status_and_field_codes_round_trip_and_rejections_read_well() {
-        for c in 0..21 {
+        for c in 0..24 {
             assert_eq!(Field::from_code(c) as u32, c);
         }
-        assert_eq!(Field::from_code(21), Field::None);
-        for c in 0..19 {
+        assert_eq!(Field::from_code(24), Field::None);
+        for c in 0..21 {
             let s = Status::from_code(c).unwrap();
             assert_eq!(s.code(), c);
         }
-        assert_eq!(Status::from_code(19), None);
+        assert_eq!(Status::from_code(21), None);
         let r = Rejection::over(Status::Busy, Field::None, 2);
         assert_eq!(r.to_string(), "busy, limit 2");
         let r = Rejection::at(Status::NonFinite, Field::Time, 3, 7);

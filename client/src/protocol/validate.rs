@@ -409,7 +409,7 @@ mod tests {
         assert_eq!(named(&|h| h.coast = -1.0), (BadValue, Field::Coast));
         // coast at most the horizon (12 s)
         assert_eq!(named(&|h| h.coast = 12.5), (BadValue, Field::Coast));
-        assert_eq!(named(&|h| h.flags = 2), (BadValue, Field::Flags));
+        assert_eq!(named(&|h| h.flags = 4), (BadValue, Field::Flags));
         assert_eq!(named(&|h| h.flags = 1 << 31), (BadValue, Field::Flags));
         assert_eq!(named(&|h| h.time_mode = 3), (BadValue, Field::TimeMode));
         assert_eq!(named(&|h| h.time = f64::NAN), (NonFinite, Field::MapTime));

@@ -34,6 +34,32 @@ impl Daemon {
             };
             any = true;
             let h = *req.header();
+            if h.version == PROTOCOL_VERSION && h.kind == protocol::KIND_OBSERVE {
+                let client = super::observe::remote_client(&h);
+                let answer = super::observe::observe(
+                    &mut self.learning,
+                    &self.registry,
+                    client,
+                    &h,
+                    req.rows(),
+                );
+                let sent = match answer {
+                    Ok(reply) => {
+                        self.stats.served += 1;
+                        let mut rh = super::respond::response_header(&h, Default::default());
+                        reply.write_to(&mut rh);
+                        req.reply(&rh, &[])
+                    }
+                    Err(rej) => {
+                        self.stats.rejected += 1;
+                        req.reject(&rej)
+                    }
+                };
+                if !sent {
+                    self.stats.failed += 1;
+                }
+                continue;
+            }
             slot.header = h;
             let decoded = decode(
                 &self.registry,
@@ -57,10 +83,17 @@ impl Daemon {
             let mut words = remote.buffers.pop().unwrap_or_default();
             words.clear();
             words.resize(decoded.payload_words(agents), 0);
-            let map = map_for(&mut self.registry, map, &decoded);
+            let (map, map_version) = map_for(&mut self.registry, map, &h, &decoded);
             let reply = req.into_pending();
-            self.scheduler
-                .admit(map, &decoded, Out::Remote { reply, words });
+            self.scheduler.admit(
+                map,
+                &decoded,
+                Out::Remote {
+                    reply,
+                    words,
+                    map_version,
+                },
+            );
         }
         any
     }
@@ -69,6 +102,9 @@ impl Daemon {
     /// scheduler with its loaned response.
     pub(super) fn accept(&mut self, req: Active) {
         let h = *req.user_header();
+        if h.version == PROTOCOL_VERSION && h.kind == protocol::KIND_OBSERVE {
+            return self.accept_observe(req);
+        }
         if h.version == PROTOCOL_VERSION && h.kind == KIND_RELOAD {
             info!(request_id = h.request_id, "reload request");
             let generation = self.registry.request_reload();
@@ -92,7 +128,7 @@ impl Daemon {
         };
         let agents = slot.scratch.states().len();
         let words = decoded.payload_words(agents);
-        let response = match req.loan_slice_uninit(words) {
+        let mut response = match req.loan_slice_uninit(words) {
             Ok(r) => r.write_from_fn(|_| 0u32),
             Err(e) => {
                 warn!(
@@ -102,7 +138,8 @@ impl Daemon {
                 return self.reject(&req, &h, internal());
             }
         };
-        let map = map_for(&mut self.registry, map, &decoded);
+        let (map, version) = map_for(&mut self.registry, map, &h, &decoded);
+        response.user_header_mut().map_version = version;
         self.scheduler.admit(
             map,
             &decoded,
@@ -115,16 +152,22 @@ impl Daemon {
 }
 
 /// The map an accepted request on map entry `entry` runs on
-/// ([`registry::map_for_time`]), its neighbour table asked for.
-fn map_for(registry: &mut Registry, entry: usize, decoded: &Decoded) -> Arc<CliffMap> {
-    let map = Arc::clone(registry::map_for_time(
-        &registry.entries()[entry],
-        decoded.map_time,
-    ));
+/// ([`registry::map_for_request`]: the version served now, or the base map when the
+/// request pins it) and its version, its neighbour table asked for.
+fn map_for(
+    registry: &mut Registry,
+    entry: usize,
+    h: &RequestHeader,
+    decoded: &Decoded,
+) -> (Arc<CliffMap>, u32) {
+    let e = &registry.entries()[entry];
+    let base = h.flags & protocol::FLAG_BASE_MAP != 0;
+    let map = Arc::clone(registry::map_for_request(e, decoded.map_time, base));
+    let version = if base { 0 } else { e.version };
     if uses_map(decoded) {
         registry.want_table(&map, decoded.params.radius);
     }
-    map
+    (map, version)
 }
 
 /// Whether a request looks up the map at its radius: every method but constant

@@ -41,6 +41,8 @@ pub struct Daemon {
     pub(super) stats: Stats,
     /// Cores of this host (for the busy hint of responses).
     pub(super) cores: usize,
+    /// Observations and the learner, when the daemon learns maps.
+    pub(super) learning: Option<crate::learn::Learning>,
     /// Remote clients over zenoh, once [`Daemon::serve_zenoh`] started them.
     #[cfg(feature = "zenoh")]
     pub(super) remote: Option<Remote>,
@@ -67,7 +69,12 @@ impl Daemon {
         settings.check()?;
         let l = settings.limits;
         let words = l.max_payload_words();
-        let registry = Registry::load(&settings.maps, TablePolicy::from_settings(&settings))?;
+        let mut registry = Registry::load(&settings.maps, TablePolicy::from_settings(&settings))?;
+        let learning = crate::learn::Learning::start(
+            &settings.learn,
+            &mut registry,
+            TablePolicy::from_settings(&settings),
+        )?;
 
         let config = cliff_client::iceoryx_config(settings.prefix.as_deref())
             .map_err(StartError::Settings)?;
@@ -200,6 +207,7 @@ impl Daemon {
             reload_waiters: Vec::new(),
             stats: Stats::default(),
             cores: crate::settings::available_cores(),
+            learning,
             #[cfg(feature = "zenoh")]
             remote: None,
             settings,
@@ -251,7 +259,18 @@ impl Daemon {
             .registry
             .entries()
             .iter()
-            .map(|m| format!("{} ({} locations)", m.name, m.map.locations().len()))
+            .map(|m| {
+                let learning = if self.settings.learn.maps.contains(&m.name) {
+                    format!(", learning, version {}", m.version)
+                } else {
+                    String::new()
+                };
+                format!(
+                    "{} ({} locations{learning})",
+                    m.name,
+                    m.map.locations().len()
+                )
+            })
             .collect();
         format!(
             "cliffd ready: serving {} on service '{}' (iceoryx2 prefix '{}'), protocol v{}",
@@ -267,6 +286,11 @@ impl Daemon {
         Stats {
             reloads: self.registry.reloads_done(),
             parallel: self.scheduler.parallel_chunks,
+            learn: self
+                .learning
+                .as_ref()
+                .map(|l| l.stats())
+                .unwrap_or_default(),
             ..self.stats
         }
     }

@@ -9,6 +9,8 @@
 //! * `respond.rs`: responses out: response headers, rejections, the responses of
 //!   finished predictions;
 //! * `reload.rs`: map reloads and the answers to reload requests;
+//! * `observe.rs`: observe requests, handed to the learning intake and answered at
+//!   once;
 //! * `old_clients.rs`: the `bad-version` answers to clients of protocol version 1;
 //! * `ports.rs`: the iceoryx2 port and request types;
 //! * `output.rs`: where a prediction goes (a shared-memory response or a zenoh reply);
@@ -17,6 +19,7 @@
 
 mod accept;
 mod daemon;
+mod observe;
 mod old_clients;
 mod output;
 mod ports;

@@ -16,6 +16,8 @@ pub(super) enum Out {
     Remote {
         reply: crate::zenoh::PendingReply,
         words: Vec<u32>,
+        /// The version of the map that answers ([`ResponseHeader::map_version`](cliff_client::ResponseHeader::map_version)).
+        map_version: u32,
     },
 }
 

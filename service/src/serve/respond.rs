@@ -69,6 +69,8 @@ impl Daemon {
                     mut response,
                 } => {
                     let sent = if f.ok {
+                        // (written when the request was accepted)
+                        rh.map_version = response.user_header().map_version;
                         *response.user_header_mut() = rh;
                         response.send().map_err(|e| format!("{e:?}"))
                     } else {
@@ -80,9 +82,16 @@ impl Daemon {
                     // dropping the active request ends it
                 }
                 #[cfg(feature = "zenoh")]
-                Out::Remote { reply, words } => {
+                Out::Remote {
+                    reply,
+                    words,
+                    map_version,
+                } => {
                     // remote clients do not see the daemon's wake state
                     rh.awake_us = 0;
+                    if f.ok {
+                        rh.map_version = map_version;
+                    }
                     let payload: &[u32] = if f.ok { &words } else { &[] };
                     if !reply.reply(&rh, payload) {
                         stats.failed += 1;

@@ -47,6 +47,9 @@ impl Daemon {
                     self.registry.request_reload();
                 }
                 self.poll_reload();
+                if let Some(l) = self.learning.as_mut() {
+                    l.housekeeping(&mut self.registry);
+                }
                 if now >= next_cleanup {
                     self.cleanup_dead_nodes();
                     next_cleanup = now + self.settings.cleanup_interval;
@@ -88,6 +91,10 @@ impl Daemon {
                     std::hint::spin_loop();
                 }
             }
+        }
+        if let Some(l) = self.learning.as_mut() {
+            // the open tracks are learned and the last snapshots written
+            l.shutdown();
         }
         let s = self.stats();
         info!(

@@ -15,4 +15,6 @@ pub struct Stats {
     pub reloads: u64,
     /// Chunks predicted in parallel with others (with more than one worker).
     pub parallel: u64,
+    /// Observations and learned versions (`cliffd --learn`; zero without).
+    pub learn: crate::learn::LearnStats,
 }

@@ -10,6 +10,7 @@ use crate::map::convert::ConvertArgs;
 use crate::map::info::InfoArgs;
 use crate::map::score::ScoreArgs;
 use crate::map::update::UpdateArgs;
+use crate::observe::ObserveArgs;
 use crate::plot::curves::CurvesArgs;
 use crate::plot::map::MapArgs;
 use crate::plot::predict::PredictPlotArgs;
@@ -49,6 +50,12 @@ pub enum Command {
     ///
     /// Example: cliff demo --out cliff-demo
     Demo(DemoArgs),
+    /// Stream recorded trajectory files to a learning cliffd (`cliffd --learn NAME`) as
+    /// observations, as fast as it accepts or at --rate rows per second.
+    ///
+    /// Runs `cliff-observe` (of the cliff-client package) with these arguments.
+    /// Example: cliff observe --map thor1 --tracks ../shared/data/thor1/exp-1-run-2.csv --format thor
+    Observe(ObserveArgs),
 }
 
 /// Map subcommands.

@@ -11,6 +11,8 @@
 //! - `eval.rs`: `cliff eval`, methods evaluated on trajectory files
 //! - `predict.rs`: `cliff predict`, one person's samples as CSV
 //! - `demo.rs`: `cliff demo`, the guided tour from nothing to three pictures
+//! - `observe.rs`: `cliff observe`, tracks streamed to a learning daemon (runs
+//!   `cliff-observe`)
 //! - `map/info.rs`, `map/convert.rs`, `map/build.rs`, `map/score.rs`,
 //!   `map/update.rs`: `cliff map info | convert | build | score | update`
 //! - `plot/map.rs`, `plot/predict.rs`, `plot/curves.rs`:
@@ -31,6 +33,7 @@ mod demo;
 mod eval;
 mod load;
 mod map;
+mod observe;
 mod person;
 mod plot;
 mod predict;
@@ -60,6 +63,7 @@ fn main() -> std::process::ExitCode {
         Command::Plot(PlotCommand::Predict(a)) => plot::predict::run(a),
         Command::Plot(PlotCommand::Curves(a)) => plot::curves::run(a),
         Command::Demo(a) => demo::run(a),
+        Command::Observe(a) => observe::run(a),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,
