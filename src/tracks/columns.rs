@@ -411,7 +411,7 @@ pub(crate) fn heading_of(v: DVec2) -> f64 {
 /// Speed and angle of each row from the position difference to the previous row (the
 /// first row: to the next one; a lone row stands still). A speed above [`MAX_SPEED`]
 /// (infinite too: rows 1e-310 s apart) is returned with the two rows it comes from.
-fn velocities_from_positions(rows: &mut [Row]) -> Result<(), (usize, usize, f64)> {
+pub(crate) fn velocities_from_positions(rows: &mut [Row]) -> Result<(), (usize, usize, f64)> {
     let n = rows.len();
     for i in 0..n {
         let (a, b) = match (i.checked_sub(1), i + 1 < n) {

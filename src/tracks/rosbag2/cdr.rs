@@ -173,6 +173,32 @@ impl<'a> Cdr<'a> {
         })
     }
 
+    /// A `float32`.
+    pub(crate) fn f32(&mut self) -> Result<f32, CdrError> {
+        let b = self.take::<4>()?;
+        Ok(if self.little {
+            f32::from_le_bytes(b)
+        } else {
+            f32::from_be_bytes(b)
+        })
+    }
+
+    /// `N` bytes of a fixed-size `uint8[N]` array (no alignment, no length).
+    pub(crate) fn bytes<const N: usize>(&mut self) -> Result<[u8; N], CdrError> {
+        let out = self
+            .bytes
+            .get(self.pos..self.pos + N)
+            .ok_or(CdrError::Truncated {
+                offset: self.pos,
+                size: N,
+                len: self.bytes.len(),
+            })?
+            .try_into()
+            .expect("N bytes");
+        self.pos += N;
+        Ok(out)
+    }
+
     /// A `uint8` (and `bool`, `byte`, `char`).
     pub(crate) fn u8(&mut self) -> Result<u8, CdrError> {
         Ok(self.take::<1>()?[0])
@@ -206,7 +232,8 @@ impl<'a> Cdr<'a> {
         std::str::from_utf8(text).map_err(|_| CdrError::NotUtf8 { offset })
     }
 
-    /// Whether every byte has been read (up to the padding of a last aligned value).
+    /// Bytes not read yet.
+    #[cfg(test)]
     pub(crate) fn left_over(&self) -> usize {
         self.left()
     }

@@ -8,6 +8,9 @@
 //! - `people_msgs/msg/People` ([`people`]): every person of a message is a row at
 //!   the header's stamp, of the track of its `name`; its velocity gives the row's speed
 //!   (`|v|`) and motion angle (`atan2(vy, vx)`, 0 standing).
+//! - `autoware_perception_msgs/msg/TrackedObjects` ([`tracked_objects`]): the objects
+//!   whose most probable class is a pedestrian, each a row at the header's stamp of the
+//!   track of its uuid (in hex); speeds and motion angles from the positions.
 //!
 //! Tracks are numbered from the tracker's ids as a named-column file's agents are
 //! ([`columns`](super::columns)): the ids themselves when they are distinct whole numbers,
@@ -27,11 +30,13 @@
 //! | `cdr` | the CDR reader (little- and big-endian) |
 //! | `header` | what the message types share: the header's stamp, points, value checks |
 //! | [`people`] | `people_msgs/msg/People` |
+//! | [`tracked_objects`] | `autoware_perception_msgs/msg/TrackedObjects` (pedestrians) |
 
 mod cdr;
 mod header;
 pub mod people;
 mod recording;
+pub mod tracked_objects;
 
 use std::io::Read;
 use std::path::Path;

@@ -7,8 +7,9 @@ use std::io::Read;
 use mcap::sans_io::LinearReaderOptions;
 
 use super::header::{FieldError, Seen};
-use super::people;
-use crate::tracks::columns::{heading_of, number_ids};
+use super::{people, tracked_objects};
+use crate::tracks::columns::{heading_of, number_ids, velocities_from_positions};
+use crate::tracks::track::MAX_SPEED;
 use crate::tracks::track::{DatasetError, Row, Track};
 
 /// Largest MCAP record read (64 MiB): a damaged length field is refused rather than
@@ -20,13 +21,23 @@ pub const MAX_RECORD_BYTES: usize = 64 << 20;
 struct MessageType {
     name: &'static str,
     decode: for<'a> fn(&'a [u8], &mut Vec<Seen<'a>>) -> Result<f64, FieldError>,
+    /// Whether speeds come from the positions rather than the messages' velocities.
+    speed_from_positions: bool,
 }
 
 /// The message types cliff reads.
-const TYPES: &[MessageType] = &[MessageType {
-    name: people::NAME,
-    decode: people::decode,
-}];
+const TYPES: &[MessageType] = &[
+    MessageType {
+        name: people::NAME,
+        decode: people::decode,
+        speed_from_positions: false,
+    },
+    MessageType {
+        name: tracked_objects::NAME,
+        decode: tracked_objects::decode,
+        speed_from_positions: true,
+    },
+];
 
 /// The names of the types cliff reads, for messages: `a, b`.
 fn type_names() -> String {
@@ -94,12 +105,27 @@ impl TopicTracks {
         Ok(())
     }
 
-    /// The tracks, numbered from the tracker's ids as a named-column file's are.
-    fn finish(mut self) -> Vec<Track> {
-        for (t, id) in self.tracks.iter_mut().zip(number_ids(&self.names)) {
+    /// The tracks, numbered from the tracker's ids as a named-column file's are (and
+    /// their speeds from the positions if the type has no velocity); an error names the
+    /// person and the two rows of a speed beyond [`MAX_SPEED`].
+    fn finish(mut self) -> Result<Vec<Track>, String> {
+        for ((t, id), name) in self
+            .tracks
+            .iter_mut()
+            .zip(number_ids(&self.names))
+            .zip(&self.names)
+        {
             t.id = id;
+            if self.kind.speed_from_positions
+                && let Err((a, b, speed)) = velocities_from_positions(&mut t.rows)
+            {
+                return Err(format!(
+                    "person {name:?}: its positions at {} s and {} s give a speed of {speed:?} m/s, beyond {MAX_SPEED}",
+                    t.rows[a].t, t.rows[b].t
+                ));
+            }
         }
-        self.tracks
+        Ok(self.tracks)
     }
 }
 
@@ -207,15 +233,20 @@ pub(crate) fn read_recording(
             format!("its topics: {}", list.join(", "))
         }
     };
+    let finish = |topic: &str, tracks: TopicTracks| {
+        tracks
+            .finish()
+            .map_err(|e| recording(format!("topic {topic}: {e}")))
+    };
     match topic {
         Some(t) => match decoded.remove(t) {
-            Some(tracks) => Ok(tracks.finish()),
+            Some(tracks) => finish(t, tracks),
             None => Err(recording(format!("no messages on topic {t}; {}", listing()))),
         },
         None => {
             let mut all = decoded.into_iter();
             match (all.next(), all.next()) {
-                (Some((_, tracks)), None) => Ok(tracks.finish()),
+                (Some((t, tracks)), None) => finish(&t, tracks),
                 (None, _) => Err(recording(format!(
                     "no topic of a type cliff reads ({}); {}",
                     type_names(),
