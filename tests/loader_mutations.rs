@@ -13,7 +13,8 @@ use cliff::map::{
 };
 use cliff::tracks::{Columns, NamedTracks, parse_named};
 use cliff::tracks::{
-    DatasetError, Format, MAX_ANGLE, MAX_POSITION, MAX_SPEED, MAX_TIME, Track, parse_track_bytes,
+    DatasetError, Format, MAX_ANGLE, MAX_POSITION, MAX_SPEED, MAX_TIME, Track, parse_recording,
+    parse_track_bytes,
 };
 use rand::{Rng, RngExt, SeedableRng};
 use rand_xoshiro::Xoshiro256PlusPlus;
@@ -351,6 +352,22 @@ fn fuzz_seed_corpus_replays_without_panics() {
                     ),
                 "{e}"
             );
+        }
+    }
+    // rosbag2 recordings written by the `rosbags` package (fuzz README), the mode byte
+    // picking the topic as the `tracks_rosbag2` target does; each holds people, and
+    // every cut of one is an error naming the file, never a panic
+    for (name, bytes) in files("tracks_rosbag2") {
+        let topic = match bytes[0] % 3 {
+            0 => None,
+            1 => Some("/people"),
+            _ => Some("/perception/object_recognition/tracking/objects"),
+        };
+        let tracks = parse_recording(&bytes[1..], &name, topic).expect(&name);
+        assert!(tracks.iter().map(|t| t.rows.len()).sum::<usize>() >= 2, "{name}");
+        for n in (0..bytes.len() - 1).step_by(13) {
+            let e = parse_recording(&bytes[1..1 + n], &name, topic).unwrap_err();
+            assert!(e.to_string().starts_with(&format!("{name}: ")), "{e}");
         }
     }
 }

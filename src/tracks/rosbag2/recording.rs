@@ -260,3 +260,164 @@ pub(crate) fn read_recording(
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use std::collections::BTreeMap;
+    use std::io::Cursor;
+
+    use super::*;
+
+    /// A People message (little-endian): stamp `t` s, the people `(name, x, y, vx, vy)`.
+    fn people(t: f64, who: &[(&str, f64, f64, f64, f64)]) -> Vec<u8> {
+        let mut b = vec![0u8, 1, 0, 0];
+        let pad = |b: &mut Vec<u8>, n: usize| {
+            while (b.len() - 4) % n != 0 {
+                b.push(0);
+            }
+        };
+        b.extend((t.floor() as i32).to_le_bytes());
+        b.extend((((t - t.floor()) * 1e9).round() as u32).to_le_bytes());
+        b.extend(1u32.to_le_bytes());
+        b.push(0); // frame ""
+        pad(&mut b, 4);
+        b.extend((who.len() as u32).to_le_bytes());
+        for (name, x, y, vx, vy) in who {
+            pad(&mut b, 4);
+            b.extend((name.len() as u32 + 1).to_le_bytes());
+            b.extend(name.as_bytes());
+            b.push(0);
+            pad(&mut b, 8);
+            for v in [*x, *y, 0.0, *vx, *vy, 0.0, 1.0] {
+                b.extend(v.to_le_bytes());
+            }
+            b.extend([0u8; 8]); // two empty arrays
+        }
+        b
+    }
+
+    /// How an MCAP file holds its records.
+    #[derive(Clone, Copy, PartialEq)]
+    enum Layout {
+        NoChunks,
+        Chunks,
+        Zstd,
+    }
+
+    /// An MCAP file of `messages` (topic, schema name, CDR bytes).
+    fn mcap(messages: &[(&str, &str, Vec<u8>)], layout: Layout) -> Vec<u8> {
+        let options = mcap::write::WriteOptions::new()
+            .use_chunks(layout != Layout::NoChunks)
+            .compression((layout == Layout::Zstd).then_some(mcap::Compression::Zstd));
+        let mut w = options.create(Cursor::new(Vec::new())).unwrap();
+        let mut channels = BTreeMap::new();
+        for (i, (topic, schema, data)) in messages.iter().enumerate() {
+            let id = *channels.entry((*topic, *schema)).or_insert_with(|| {
+                let s = w.add_schema(schema, "ros2msg", b"").unwrap();
+                w.add_channel(s, topic, "cdr", &BTreeMap::new()).unwrap()
+            });
+            let header = mcap::records::MessageHeader {
+                channel_id: id,
+                sequence: i as u32,
+                log_time: i as u64,
+                publish_time: i as u64,
+            };
+            w.write_to_known_channel(&header, data).unwrap();
+        }
+        w.finish().unwrap();
+        w.into_inner().into_inner()
+    }
+
+    fn read(bytes: &[u8], topic: Option<&str>) -> Result<Vec<Track>, String> {
+        read_recording(bytes, "r.mcap", topic).map_err(|e| e.to_string())
+    }
+
+    #[test]
+    fn reads_people_into_tracks_with_speed_and_heading_from_velocity() {
+        let msgs = [
+            ("/people", people::NAME, people(0.5, &[("7", 1.0, 2.0, 0.0, 1.0), ("9", 0.0, 0.0, 0.0, 0.0)])),
+            ("/scan", "sensor_msgs/msg/LaserScan", vec![1, 2, 3]),
+            ("/people", people::NAME, people(0.9, &[("7", 1.0, 2.4, -1.0, 0.0)])),
+        ];
+        for layout in [Layout::NoChunks, Layout::Chunks, Layout::Zstd] {
+            let bytes = mcap(&msgs, layout);
+            let t = read(&bytes, Some("/people")).unwrap();
+            assert_eq!(t, read(&bytes, None).unwrap());
+            assert_eq!(t.len(), 2);
+            assert_eq!((t[0].id, t[0].rows.len(), t[1].id), (7, 2, 9));
+            let r = t[0].rows[1];
+            assert_eq!((r.t, r.position.y, r.speed), (0.9, 2.4, 1.0));
+            assert_eq!(r.angle, std::f64::consts::PI);
+            assert_eq!(t[0].rows[0].angle, std::f64::consts::FRAC_PI_2);
+            assert_eq!((t[1].rows[0].speed, t[1].rows[0].angle), (0.0, 0.0));
+        }
+    }
+
+    #[test]
+    fn topics_types_and_damage_are_errors_naming_them() {
+        let msgs = [
+            ("/people", people::NAME, people(0.5, &[("a", 1.0, 2.0, 0.0, 1.0)])),
+            ("/poses", "geometry_msgs/msg/PoseArray", vec![0, 1, 0, 0]),
+            ("/people", people::NAME, people(0.1, &[("a", 1.0, 2.0, 0.0, 1.0)])),
+        ];
+        let bytes = mcap(&msgs, Layout::Zstd);
+        assert_eq!(
+            read(&bytes, Some("/poses")).unwrap_err(),
+            "r.mcap: topic /poses carries geometry_msgs/msg/PoseArray, not a type cliff reads \
+             (people_msgs/msg/People, autoware_perception_msgs/msg/TrackedObjects)"
+        );
+        assert_eq!(
+            read(&bytes, Some("/tracks")).unwrap_err(),
+            "r.mcap: no messages on topic /tracks; its topics: \
+             /people (people_msgs/msg/People), /poses (geometry_msgs/msg/PoseArray)"
+        );
+        assert_eq!(
+            read(&bytes, None).unwrap_err(),
+            "r.mcap: topic /people, message 2: header.stamp: time 0.1 of person \"a\" \
+             (person 0 of the message) is not after its previous row's (0.5)"
+        );
+        // every cut of the file is an error, never a panic
+        for n in (0..bytes.len()).step_by(7) {
+            assert!(read(&bytes[..n], None).is_err(), "cut at {n}");
+        }
+        let e = read(&bytes[..bytes.len() / 2], None).unwrap_err();
+        assert!(e.starts_with("r.mcap: not a readable rosbag2 MCAP recording: "), "{e}");
+        // two topics of people: one must be named
+        let two = mcap(
+            &[
+                ("/a", people::NAME, people(0.5, &[])),
+                ("/b", people::NAME, people(0.5, &[])),
+            ],
+            Layout::Chunks,
+        );
+        assert!(read(&two, None).unwrap_err().contains("several topics hold people (/a, /b)"));
+        assert_eq!(read(&two, Some("/b")).unwrap(), Vec::new());
+    }
+
+    #[test]
+    fn a_record_length_of_four_billion_is_refused_not_allocated() {
+        // a file without chunks: the first record after the magic and the header record
+        // is a schema; its length field (8 bytes after its opcode) claims 2^32 bytes
+        let mut bytes = mcap(&[("/people", people::NAME, people(0.5, &[]))], Layout::NoChunks);
+        let header_len = u64::from_le_bytes(bytes[9..17].try_into().unwrap()) as usize;
+        let at = 8 + 9 + header_len;
+        assert_eq!(bytes[at], 0x03, "a schema record");
+        bytes[at + 1..at + 9].copy_from_slice(&(1u64 << 32).to_le_bytes());
+        let e = read(&bytes, None).unwrap_err();
+        assert!(e.contains("length exceeds limit"), "{e}");
+        // and inside a chunk: a message record claiming 2^32 bytes
+        let msg = people(0.5, &[("a", 1.0, 2.0, 0.0, 1.0)]);
+        let plain = mcap(&[("/people", people::NAME, msg.clone())], Layout::Chunks);
+        let at = plain
+            .windows(msg.len())
+            .position(|w| w == msg.as_slice())
+            .unwrap();
+        // the message record: opcode, length, channel id, sequence, two times, data
+        let record = at - (1 + 8 + 2 + 4 + 8 + 8);
+        assert_eq!(plain[record], 0x05);
+        let mut bad = plain.clone();
+        bad[record + 1..record + 9].copy_from_slice(&(1u64 << 32).to_le_bytes());
+        let e = read(&bad, None).unwrap_err();
+        assert!(e.contains("not a readable rosbag2 MCAP recording"), "{e}");
+    }
+}
