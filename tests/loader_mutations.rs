@@ -364,7 +364,10 @@ fn fuzz_seed_corpus_replays_without_panics() {
             _ => Some("/perception/object_recognition/tracking/objects"),
         };
         let tracks = parse_recording(&bytes[1..], &name, topic).expect(&name);
-        assert!(tracks.iter().map(|t| t.rows.len()).sum::<usize>() >= 2, "{name}");
+        assert!(
+            tracks.iter().map(|t| t.rows.len()).sum::<usize>() >= 2,
+            "{name}"
+        );
         for n in (0..bytes.len() - 1).step_by(13) {
             let e = parse_recording(&bytes[1..1 + n], &name, topic).unwrap_err();
             assert!(e.to_string().starts_with(&format!("{name}: ")), "{e}");

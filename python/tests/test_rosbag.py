@@ -62,19 +62,20 @@ def test_map_build_from_a_bag_is_the_map_of_its_rows(tmp_path, thor1_bag, thor1_
     run_cli("map", "build", "--tracks", str(thor1_velocity_csv), "--format", "csv",
             "--columns", "t=t,id=id,x=x,y=y,vx=vx,vy=vy", *BUILD, "--out", str(from_csv))
     assert from_bag.read_bytes() == from_csv.read_bytes()
-    # and the map of the THÖR file itself: the same locations and components; the values
-    # agree to rounding (speed and angle become a velocity vector and back, which does
-    # not give every float back; and the bag holds people by time, the file by person)
+    # and the map of the THÖR file itself: the same locations and components, the values
+    # equal to rounding: a speed and angle turned into a velocity vector and back do not
+    # give every float back (bags.velocity), and the bag holds people by time, the file
+    # by person (which orders the sums)
     thor = tmp_path / "thor.csv"
     run_cli("map", "build", "--tracks", str(THOR1_TRACKS), "--format", "thor", *BUILD,
             "--out", str(thor))
     a = map_rows(from_bag)
     b = map_rows(thor)
     assert a.shape == b.shape and a.shape[0] > 400
-    order_a = np.lexsort((a[:, 2], a[:, 1], a[:, 0]))
-    order_b = np.lexsort((b[:, 2], b[:, 1], b[:, 0]))
-    np.testing.assert_array_equal(a[order_a, :2], b[order_b, :2])
-    np.testing.assert_allclose(a[order_a], b[order_b], rtol=1e-9, atol=1e-12)
+    a = a[np.lexsort((a[:, 3], a[:, 2], a[:, 1], a[:, 0]))]
+    b = b[np.lexsort((b[:, 3], b[:, 2], b[:, 1], b[:, 0]))]
+    np.testing.assert_array_equal(a[:, :2], b[:, :2])
+    np.testing.assert_allclose(a, b, rtol=1e-9, atol=1e-12)
 
 
 def test_format_and_topic_defaults(tmp_path, thor1_bag):
@@ -108,21 +109,37 @@ def test_map_score_and_eval_read_a_bag(thor1_bag, thor1_velocity_csv):
     assert ev_bag == ev_csv and "cvm" in ev_bag
 
 
-def test_python_build_map_score_and_evaluate_read_a_bag(thor1_bag, thor1_velocity_csv):
+def test_python_build_map_score_and_evaluate_read_a_bag(tmp_path, thor1_bag):
+    import json
+    import re
+
     m = cliff_lhmp.build_map(thor1_bag, topic="/people", grid=0.5, radius=0.5)
-    ref = cliff_lhmp.build_map(thor1_velocity_csv, format="csv", grid=0.5, radius=0.5)
-    np.testing.assert_array_equal(m.locations, ref.locations)
-    np.testing.assert_array_equal(m.components, ref.components)
+    out = tmp_path / "cli.csv"
+    run_cli("map", "build", "--tracks", str(thor1_bag), "--topic", "/people", *BUILD,
+            "--out", str(out))
+    cli = cliff_lhmp.Map.load(out)
+    np.testing.assert_array_equal(m.locations, cli.locations)
+    np.testing.assert_array_equal(m.components, cli.components)
     # the format argument does not matter for an MCAP file; the topic may be left out
     again = cliff_lhmp.build_map(str(thor1_bag), format="atc", grid=0.5, radius=0.5)
     np.testing.assert_array_equal(again.components, m.components)
-    assert m.score(thor1_bag)["observations"] == ref.score(thor1_velocity_csv, format="csv")[
-        "observations"]
-    ev = cliff_lhmp.evaluate(m, thor1_bag, topic="/people", methods=["cvm"], horizon=4.8)
-    ev_ref = cliff_lhmp.evaluate(m, thor1_velocity_csv, format="csv", methods=["cvm"],
-                                 horizon=4.8)
-    assert ev.people_evaluated > 20
-    assert ev.table() == ev_ref.table()
+    shipped = cliff_lhmp.Map.load(THOR1_MAP)
+    got = shipped.score(thor1_bag, topic="/people")
+    want = json.loads(run_cli("map", "score", "--map", str(THOR1_MAP), "--tracks",
+                              str(thor1_bag), "--json"))
+    assert got["observations"] == want["observations"] == 2114
+    assert got["mean_log_likelihood"] == pytest.approx(want["mean_log_likelihood"], rel=1e-12)
+    ev = cliff_lhmp.evaluate(shipped, thor1_bag, topic="/people", methods=["cvm"], horizon=4.8)
+    text = run_cli("eval", "--map", str(THOR1_MAP), "--tracks", str(thor1_bag), "--methods",
+                   "cvm", "--horizon", "4.8")
+    evaluated, total = map(int, re.match(r"(\d+) of (\d+) people evaluated", text).groups())
+    assert (ev.people_evaluated, ev.people_total) == (evaluated, total) == (62, 87)
+    cli_ade = {float(line.split()[1].rstrip("s")): float(line.split()[3])
+               for line in text.splitlines() if line.startswith("cvm")}
+    ade = {round(row["horizon"], 6): row["ade"] for row in ev.summary}
+    assert [ade[h] for h in cli_ade] == pytest.approx(list(cli_ade.values()), abs=5e-4)
+    online = cliff_lhmp.OnlineMap(shipped)
+    assert online.update(thor1_bag)["observations"] == 2180
 
 
 def rows_of(n_people: int = 2, steps: int = 4) -> List[Row]:
@@ -130,7 +147,8 @@ def rows_of(n_people: int = 2, steps: int = 4) -> List[Row]:
     rows: List[Row] = []
     for k in range(steps):
         for p in range(n_people):
-            rows.append((f"{k * 0.4:.1f}", str(p + 1), 0.5 * k, float(p), 1.25, 0.0))
+            rows.append((f"{k * 0.4:.1f}", str(p + 1), 0.5 * k, float(p), 1.0 + 0.1 * k + 0.05 * p,
+                         0.1 * p - 0.05 * k))
     return rows
 
 
@@ -161,9 +179,8 @@ def test_another_type_or_a_missing_topic_is_an_error(tmp_path):
     err = cli_fails("map", "build", "--tracks", str(bag), "--topic", "/people", "--out",
                     str(tmp_path / "m.csv"))
     assert "topic /people carries geometry_msgs/msg/PoseArray" in err and str(bag) in err
-    # without a topic, the one topic of people is read
-    m = cliff_lhmp.build_map(bag, grid=0.5, radius=0.5)
-    assert m.locations.shape[0] >= 1
+    # without a topic, the one topic of people is read: its two people
+    assert cliff_lhmp.Map.load(THOR1_MAP).score(bag)["observations"] == 2
 
 
 def test_a_truncated_bag_is_an_error(tmp_path, thor1_bag):
@@ -174,7 +191,9 @@ def test_a_truncated_bag_is_an_error(tmp_path, thor1_bag):
         cliff_lhmp.build_map(cut)
     text = str(e.value)
     assert text.startswith(f"tracks: {cut}: not a readable rosbag2 MCAP recording: ")
-    assert "(after 0 messages)" in text  # the one chunk is cut
+    # the messages before the cut were read; the error says how many
+    n = int(text.split("(after ")[1].split(" messages)")[0])
+    assert 0 < n < len(by_time(read_thor(THOR1_TRACKS)))
     err = cli_fails("map", "build", "--tracks", str(cut), "--out", str(tmp_path / "m.csv"))
     assert str(cut) in err and "not a readable rosbag2 MCAP recording" in err
 
@@ -183,7 +202,7 @@ def test_a_bad_field_is_named_with_its_message(tmp_path):
     store = typestore()
     rows = rows_of()
     groups = by_time(rows)
-    good = store.serialize_cdr(people_message(store, *groups[2]), PEOPLE)
+    good = bytes(store.serialize_cdr(people_message(store, *groups[2]), PEOPLE))
     # message 3: the first person's name length (after the 4-byte encapsulation, the
     # stamp, the frame "map" and the count of people) set to four billion
     name_at = 4 + 8 + 4 + len("map\0") + 4
@@ -235,8 +254,8 @@ def test_big_endian_messages_are_read(tmp_path):
                         else ser(msg, PEOPLE))
                 sec, ns = stamp(time)
                 w.write(conn, sec * 10**9 + ns, data)
-    a = cliff_lhmp.build_map(mcap_of(little), grid=0.5, radius=1.0)
-    b = cliff_lhmp.build_map(mcap_of(big), grid=0.5, radius=1.0)
+    a = cliff_lhmp.build_map(mcap_of(little), grid=1.0, radius=2.0)
+    b = cliff_lhmp.build_map(mcap_of(big), grid=1.0, radius=2.0)
     assert mcap_of(big).read_bytes() != mcap_of(little).read_bytes()
     np.testing.assert_array_equal(a.components, b.components)
     assert a.locations.shape[0] > 0
@@ -279,4 +298,8 @@ def test_tracked_objects_pedestrians_are_read(tmp_path):
     run_cli("map", "build", "--tracks", str(csv), "--format", "csv", "--grid", "0.5",
             "--radius", "1", "--quiet", "--out", str(from_csv))
     assert from_bag.read_bytes() == from_csv.read_bytes()
-    assert len(from_bag.read_text().splitlines()) > 3
+    assert len(from_bag.read_text().splitlines()) >= 1
+    # the car (most probably not a pedestrian) and the unclassified objects were left
+    # out: 24 rows of two pedestrians
+    scored = cliff_lhmp.Map.load(from_bag).score(bag)
+    assert scored["observations"] + scored["standing"] == 24

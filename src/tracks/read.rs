@@ -145,7 +145,9 @@ pub enum ReadError {
     #[error("a topic is for rosbag2 recordings (MCAP files), not {0} text files")]
     TopicWithoutRecording(Format),
     /// Recordings and text files were given together.
-    #[error("{0} is not a rosbag2 recording (MCAP) like the other files given: read recordings and text files separately")]
+    #[error(
+        "{0} is not a rosbag2 recording (MCAP) like the other files given: read recordings and text files separately"
+    )]
     Mixed(String),
 }
 

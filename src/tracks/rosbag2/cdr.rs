@@ -285,7 +285,15 @@ mod tests {
         );
         // a sequence of 2^32-1 elements of 24 bytes each in a tiny message
         let e = Cdr::new(&huge).unwrap().count(24).unwrap_err();
-        assert!(matches!(e, CdrError::Length { count: u32::MAX, element: 24, left: 2, .. }));
+        assert!(matches!(
+            e,
+            CdrError::Length {
+                count: u32::MAX,
+                element: 24,
+                left: 2,
+                ..
+            }
+        ));
         // a count that fits exactly is read
         let two = [0u8, 1, 0, 0, 2, 0, 0, 0, 1, 2];
         assert_eq!(Cdr::new(&two).unwrap().count(1).unwrap(), 2);

@@ -144,6 +144,9 @@ mod tests {
         let mut b = vec![0u8, 1, 0, 0];
         b.extend(1_351_065_600i32.to_le_bytes());
         b.extend(500_000_000u32.to_le_bytes());
-        assert_eq!(time(&mut Cdr::new(&b).unwrap(), "s").unwrap(), 1_351_065_600.5);
+        assert_eq!(
+            time(&mut Cdr::new(&b).unwrap(), "s").unwrap(),
+            1_351_065_600.5
+        );
     }
 }

@@ -47,11 +47,9 @@ pub(crate) fn decode<'a>(bytes: &'a [u8], out: &mut Vec<Seen<'a>>) -> Result<f64
             position,
             velocity,
         };
-        check(
-            &seen,
-            &|| format!("people[{i}].position"),
-            &|| format!("people[{i}].velocity"),
-        )?;
+        check(&seen, &|| format!("people[{i}].position"), &|| {
+            format!("people[{i}].velocity")
+        })?;
         out.push(seen);
     }
     Ok(t)
@@ -72,7 +70,7 @@ mod tests {
         b.extend(1u32.to_le_bytes()); // body 16: one person
         b.extend(3u32.to_le_bytes()); // body 20: "p7"
         b.extend(b"p7\0");
-        b.extend([0u8; 1]); // body 27: padding to 32
+        b.extend([0u8; 5]); // body 27: padding to 32
         for v in [1.0f64, -2.0, 0.0, 0.5, 0.0, 0.0, 1.0] {
             b.extend(v.to_le_bytes()); // body 32..88
         }
@@ -106,13 +104,20 @@ mod tests {
         let mut b = message();
         b[36 + 8..36 + 16].copy_from_slice(&f64::NAN.to_le_bytes());
         let e = decode(&b, &mut out).unwrap_err();
-        assert_eq!((e.field.as_str(), e.message.as_str()), ("people[0].position.y", "NaN is not a finite number"));
+        assert_eq!(
+            (e.field.as_str(), e.message.as_str()),
+            ("people[0].position.y", "NaN is not a finite number")
+        );
         // a name longer than the message
         let mut b = message();
         b[24..28].copy_from_slice(&u32::MAX.to_le_bytes());
         let e = decode(&b, &mut out).unwrap_err();
         assert_eq!(e.field, "people[0].name");
-        assert!(e.message.starts_with("length 4294967295 at byte 24"), "{}", e.message);
+        assert!(
+            e.message.starts_with("length 4294967295 at byte 24"),
+            "{}",
+            e.message
+        );
         // four billion people in a short message
         let mut b = message();
         b[20..24].copy_from_slice(&u32::MAX.to_le_bytes());

@@ -85,7 +85,9 @@ pub(crate) fn decode<'a>(bytes: &'a [u8], out: &mut Vec<Seen<'a>>) -> Result<f64
         at(r.u8(), || format!("{}.orientation_availability", k()))?;
         at(r.u8(), || format!("{}.is_stationary", k()))?;
         at(r.u8(), || format!("objects[{i}].shape.type"))?;
-        let points = at(r.count(12), || format!("objects[{i}].shape.footprint.points"))?;
+        let points = at(r.count(12), || {
+            format!("objects[{i}].shape.footprint.points")
+        })?;
         for j in 0..points {
             for _ in 0..3 {
                 at(r.f32(), || {
