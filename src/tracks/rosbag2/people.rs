@@ -75,7 +75,7 @@ mod tests {
             b.extend(v.to_le_bytes()); // body 32..88
         }
         for s in ["leg", "l"] {
-            while (b.len() - 4) % 4 != 0 {
+            while !(b.len() - 4).is_multiple_of(4) {
                 b.push(0); // padding before a count
             }
             b.extend(1u32.to_le_bytes());

@@ -157,14 +157,12 @@ pub(crate) fn read_recording(
     let mut topics: BTreeMap<String, String> = BTreeMap::new();
     let mut channels: HashMap<u16, Use> = HashMap::new();
     let mut decoded: BTreeMap<String, TopicTracks> = BTreeMap::new();
-    let mut total = 0u64;
-    for message in reader {
+    for (total, message) in reader.enumerate() {
         let message = message.map_err(|e| {
             recording(format!(
                 "not a readable rosbag2 MCAP recording: {e} (after {total} messages)"
             ))
         })?;
-        total += 1;
         let ch = &message.channel;
         let usage = match channels.get(&ch.id) {
             Some(u) => u,
@@ -275,7 +273,7 @@ mod tests {
     fn people(t: f64, who: &[(&str, f64, f64, f64, f64)]) -> Vec<u8> {
         let mut b = vec![0u8, 1, 0, 0];
         let pad = |b: &mut Vec<u8>, n: usize| {
-            while (b.len() - 4) % n != 0 {
+            while !(b.len() - 4).is_multiple_of(n) {
                 b.push(0);
             }
         };
