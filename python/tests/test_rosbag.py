@@ -6,6 +6,7 @@ the file, the topic, the message and the field."""
 import math
 import struct
 import subprocess
+from decimal import Decimal
 from pathlib import Path
 from typing import List
 
@@ -303,3 +304,34 @@ def test_tracked_objects_pedestrians_are_read(tmp_path):
     # out: 24 rows of two pedestrians
     scored = cliff_lhmp.Map.load(from_bag).score(bag)
     assert scored["observations"] + scored["standing"] == 24
+
+
+def test_a_bag_folder_split_in_two_files_is_one_recording(tmp_path, thor1_bag):
+    rows = read_thor(THOR1_TRACKS)
+    times = [t for t, _ in by_time(rows)]
+    cut = Decimal(times[len(times) // 2])
+    first = write_people_bag(tmp_path / "a", [r for r in rows if Decimal(r[0]) < cut])
+    second = write_people_bag(tmp_path / "b", [r for r in rows if Decimal(r[0]) >= cut])
+    folder = tmp_path / "run"
+    folder.mkdir()
+    (folder / "run_0.mcap").write_bytes(first.read_bytes())
+    (folder / "run_1.mcap").write_bytes(second.read_bytes())
+    (folder / "metadata.yaml").write_text("rosbag2_bagfile_information: {}\n")
+    whole = tmp_path / "whole.csv"
+    split = tmp_path / "split.csv"
+    run_cli("map", "build", "--tracks", str(thor1_bag), *BUILD, "--out", str(whole))
+    run_cli("map", "build", "--tracks", str(folder), "--topic", "/people", *BUILD,
+            "--out", str(split))
+    # the people of the first file go on in the second: the same tracks, the same map
+    assert split.read_bytes() == whole.read_bytes()
+    # the files in the other order: a person's time goes backwards, in the second file
+    (folder / "run_0.mcap").write_bytes(second.read_bytes())
+    (folder / "run_1.mcap").write_bytes(first.read_bytes())
+    with pytest.raises(ValueError, match=r"run_1\.mcap: topic /people, message 1: header\.stamp: "
+                                         r"time .* is not after its previous row's"):
+        cliff_lhmp.build_map(folder)
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    err = cli_fails("map", "build", "--tracks", str(empty), "--format", "rosbag2", "--out",
+                    str(tmp_path / "m.csv"))
+    assert f"{empty}: a folder without .mcap files" in err

@@ -13,7 +13,7 @@ use std::path::Path;
 
 use super::columns::{Columns, parse_named, read_many_named};
 use super::format::Format;
-use super::rosbag2::{is_mcap, is_mcap_file, parse_recording, read_recording};
+use super::rosbag2::{is_mcap, is_recording, parse_recording, read_recording};
 use super::six_columns::parse_six_columns;
 use super::track::{DatasetError, MAX_TRACK_FILE_BYTES, Track};
 use crate::bounded_read::{line_column, read_at_most};
@@ -22,11 +22,12 @@ use crate::bounded_read::{line_column, read_at_most};
 ///
 /// Files larger than [`MAX_TRACK_FILE_BYTES`] are refused before they are read; the
 /// rows are then checked as [`parse_tracks`] describes. A rosbag2 recording (a file that
-/// begins with the MCAP magic, or any file with [`Format::Rosbag2`]) is read as
+/// begins with the MCAP magic, a bag's folder of `.mcap` files, or any file with
+/// [`Format::Rosbag2`]) is read as
 /// [`read_recording`] reads it without a topic: its one topic of people; its size is
 /// not limited, as it streams.
 pub fn read_tracks(path: &Path, format: Format) -> Result<Vec<Track>, DatasetError> {
-    if format == Format::Rosbag2 || is_mcap_file(path) {
+    if format == Format::Rosbag2 || is_recording(path) {
         return read_recording(path, None);
     }
     let file = path.display().to_string();
@@ -91,8 +92,8 @@ pub fn parse_tracks(text: &str, file: &str, format: Format) -> Result<Vec<Track>
 /// Read and concatenate the tracks of several files in `format`; `columns`, when given,
 /// names the columns of a [`Format::Csv`] or [`Format::Magni`] file (and is an error
 /// with the headerless formats); `topic`, when given, the topic of rosbag2 recordings
-/// (and is an error with a text file). Files that begin with the MCAP magic are read
-/// as recordings whatever `format` says.
+/// (and is an error with a text file). Files that begin with the MCAP magic, and bag
+/// folders, are read as recordings whatever `format` says.
 pub fn read_many_as(
     paths: &[impl AsRef<Path>],
     format: Format,
@@ -101,7 +102,7 @@ pub fn read_many_as(
 ) -> Result<Vec<Track>, ReadError> {
     let bags: Vec<bool> = paths
         .iter()
-        .map(|p| format == Format::Rosbag2 || is_mcap_file(p.as_ref()))
+        .map(|p| format == Format::Rosbag2 || is_recording(p.as_ref()))
         .collect();
     if bags.iter().any(|&b| b) {
         let mut all = Vec::new();

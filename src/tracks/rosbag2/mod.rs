@@ -1,5 +1,6 @@
-//! rosbag2 recordings: the tracks of a robot's people tracker, read from the MCAP file
-//! `ros2 bag record` writes (zstd-compressed chunks or none).
+//! rosbag2 recordings: the tracks of a robot's people tracker, read from the MCAP files
+//! `ros2 bag record` writes (zstd-compressed chunks or none): one file, or a bag's
+//! folder whose files are read in order as one recording.
 //!
 //! One topic is read: the one named, or, when none is, the one topic whose type cliff
 //! reads. Its messages must be CDR of one of these types (the schema name in the
@@ -62,15 +63,67 @@ pub fn is_mcap_file(path: &Path) -> bool {
         && is_mcap(&head)
 }
 
+/// Whether `path` is a rosbag2 recording: an MCAP file, or a bag's folder (holding
+/// `.mcap` files).
+pub fn is_recording(path: &Path) -> bool {
+    if path.is_dir() {
+        mcap_files(path).is_ok_and(|f| !f.is_empty())
+    } else {
+        is_mcap_file(path)
+    }
+}
+
+/// The `.mcap` files of a bag's folder in recording order (`run_0.mcap`, `run_1.mcap`,
+/// ..., `run_10.mcap`: by length, then name).
+fn mcap_files(folder: &Path) -> std::io::Result<Vec<std::path::PathBuf>> {
+    let mut files: Vec<_> = std::fs::read_dir(folder)?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| {
+            p.is_file()
+                && p.extension()
+                    .is_some_and(|x| x.eq_ignore_ascii_case("mcap"))
+        })
+        .collect();
+    files.sort_by_key(|p| {
+        let name = p
+            .file_name()
+            .unwrap_or_default()
+            .to_string_lossy()
+            .into_owned();
+        (name.len(), name)
+    });
+    Ok(files)
+}
+
 /// Read the tracks of a rosbag2 MCAP recording: the messages of `topic`, or without
 /// one, of the one topic whose type cliff reads (see the [module](self) documentation).
+/// `path` is an MCAP file or a bag's folder, whose `.mcap` files (a recording split by
+/// size or time) are read in order as one recording.
 pub fn read_recording(path: &Path, topic: Option<&str>) -> Result<Vec<Track>, DatasetError> {
-    let file = path.display().to_string();
-    let f = std::fs::File::open(path).map_err(|source| DatasetError::Io {
-        file: file.clone(),
+    let name = path.display().to_string();
+    let io = |file: &str, source| DatasetError::Io {
+        file: file.to_string(),
         source,
-    })?;
-    recording::read_recording(std::io::BufReader::new(f), &file, topic)
+    };
+    let files = if path.is_dir() {
+        let files = mcap_files(path).map_err(|e| io(&name, e))?;
+        if files.is_empty() {
+            return Err(DatasetError::Recording {
+                file: name,
+                message: "a folder without .mcap files (a rosbag2 recording holds them)".into(),
+            });
+        }
+        files
+    } else {
+        vec![path.to_path_buf()]
+    };
+    let mut reading = recording::Reading::default();
+    for f in &files {
+        let file = f.display().to_string();
+        let source = std::fs::File::open(f).map_err(|e| io(&file, e))?;
+        reading.read_file(std::io::BufReader::new(source), &file, topic)?;
+    }
+    reading.finish(&name, topic)
 }
 
 /// [`read_recording`] of bytes in memory; `file` names them in errors.

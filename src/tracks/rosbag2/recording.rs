@@ -145,118 +145,162 @@ pub(crate) fn read_recording(
     file: &str,
     topic: Option<&str>,
 ) -> Result<Vec<Track>, DatasetError> {
-    let recording = |message: String| DatasetError::Recording {
-        file: file.to_string(),
-        message,
-    };
-    let options = LinearReaderOptions::default()
-        .with_record_length_limit(MAX_RECORD_BYTES)
-        .with_validate_chunk_crcs(true);
-    let reader = mcap::io::MessageReader::new_with_options(source, options);
-    // every topic seen, with its type (for the error when the topic asked for is missing)
-    let mut topics: BTreeMap<String, String> = BTreeMap::new();
-    let mut channels: HashMap<u16, Use> = HashMap::new();
-    let mut decoded: BTreeMap<String, TopicTracks> = BTreeMap::new();
-    for (total, message) in reader.enumerate() {
-        let message = message.map_err(|e| {
-            recording(format!(
-                "not a readable rosbag2 MCAP recording: {e} (after {total} messages)"
-            ))
-        })?;
-        let ch = &message.channel;
-        let usage = match channels.get(&ch.id) {
-            Some(u) => u,
-            None => {
-                let type_name = ch.schema.as_ref().map(|s| s.name.clone());
-                topics.insert(
-                    ch.topic.clone(),
-                    type_name.clone().unwrap_or_else(|| "no schema".into()),
-                );
-                let kind = type_name
-                    .as_deref()
-                    .and_then(|n| TYPES.iter().find(|t| t.name == n));
-                let wanted = topic.is_none_or(|t| t == ch.topic);
-                let usage = match kind {
-                    Some(kind) if wanted && ch.message_encoding == "cdr" => {
-                        decoded
-                            .entry(ch.topic.clone())
-                            .or_insert_with(|| TopicTracks::new(kind));
-                        Use::Decode(ch.topic.clone())
-                    }
-                    Some(_) if wanted && topic.is_some() => {
-                        return Err(recording(format!(
-                            "topic {} holds {} messages, not cdr",
-                            ch.topic, ch.message_encoding
-                        )));
-                    }
-                    None if topic == Some(ch.topic.as_str()) => {
-                        return Err(recording(format!(
-                            "topic {} carries {}, not a type cliff reads ({})",
-                            ch.topic,
-                            type_name.as_deref().unwrap_or("messages without a schema"),
-                            type_names()
-                        )));
-                    }
-                    _ => Use::Skip,
-                };
-                channels.entry(ch.id).or_insert(usage)
+    let mut reading = Reading::default();
+    reading.read_file(source, file, topic)?;
+    reading.finish(file, topic)
+}
+
+/// What has been read of a recording so far, over its files (a bag split into several
+/// MCAP files continues the tracks of the one before).
+#[derive(Default)]
+pub(crate) struct Reading {
+    /// Every topic seen, with its type (for the error when the topic asked for is
+    /// missing).
+    topics: BTreeMap<String, String>,
+    decoded: BTreeMap<String, TopicTracks>,
+}
+
+impl Reading {
+    /// Read one MCAP file of the recording (`file` names it in errors; the messages are
+    /// counted from 1 in each file).
+    pub(crate) fn read_file(
+        &mut self,
+        source: impl Read,
+        file: &str,
+        topic: Option<&str>,
+    ) -> Result<(), DatasetError> {
+        let recording = |message: String| DatasetError::Recording {
+            file: file.to_string(),
+            message,
+        };
+        let options = LinearReaderOptions::default()
+            .with_record_length_limit(MAX_RECORD_BYTES)
+            .with_validate_chunk_crcs(true);
+        let reader = mcap::io::MessageReader::new_with_options(source, options);
+        let Reading { topics, decoded } = self;
+        for t in decoded.values_mut() {
+            t.messages = 0;
+        }
+        let mut channels: HashMap<u16, Use> = HashMap::new();
+        for (total, message) in reader.enumerate() {
+            let message = message.map_err(|e| {
+                recording(format!(
+                    "not a readable rosbag2 MCAP recording: {e} (after {total} messages)"
+                ))
+            })?;
+            let ch = &message.channel;
+            let usage = match channels.get(&ch.id) {
+                Some(u) => u,
+                None => {
+                    let type_name = ch.schema.as_ref().map(|s| s.name.clone());
+                    topics.insert(
+                        ch.topic.clone(),
+                        type_name.clone().unwrap_or_else(|| "no schema".into()),
+                    );
+                    let kind = type_name
+                        .as_deref()
+                        .and_then(|n| TYPES.iter().find(|t| t.name == n));
+                    let wanted = topic.is_none_or(|t| t == ch.topic);
+                    let usage = match kind {
+                        Some(kind) if wanted && ch.message_encoding == "cdr" => {
+                            decoded
+                                .entry(ch.topic.clone())
+                                .or_insert_with(|| TopicTracks::new(kind));
+                            Use::Decode(ch.topic.clone())
+                        }
+                        Some(_) if wanted && topic.is_some() => {
+                            return Err(recording(format!(
+                                "topic {} holds {} messages, not cdr",
+                                ch.topic, ch.message_encoding
+                            )));
+                        }
+                        None if topic == Some(ch.topic.as_str()) => {
+                            return Err(recording(format!(
+                                "topic {} carries {}, not a type cliff reads ({})",
+                                ch.topic,
+                                type_name.as_deref().unwrap_or("messages without a schema"),
+                                type_names()
+                            )));
+                        }
+                        _ => Use::Skip,
+                    };
+                    channels.entry(ch.id).or_insert(usage)
+                }
+            };
+            let Use::Decode(name) = usage else {
+                continue;
+            };
+            let tracks = decoded.get_mut(name).expect("registered with its channel");
+            if tracks.kind.name != ch.schema.as_ref().map_or("", |s| s.name.as_str()) {
+                return Err(recording(format!(
+                    "topic {name} carries two types: {} and {}",
+                    tracks.kind.name,
+                    ch.schema.as_ref().map_or("no schema", |s| s.name.as_str())
+                )));
+            }
+            tracks
+                .add(&message.data)
+                .map_err(|e| DatasetError::Message {
+                    file: file.to_string(),
+                    topic: name.clone(),
+                    index: tracks.messages,
+                    field: e.field,
+                    message: e.message,
+                })?;
+        }
+        Ok(())
+    }
+
+    /// The tracks read; `file` names the recording in errors.
+    pub(crate) fn finish(
+        self,
+        file: &str,
+        topic: Option<&str>,
+    ) -> Result<Vec<Track>, DatasetError> {
+        let recording = |message: String| DatasetError::Recording {
+            file: file.to_string(),
+            message,
+        };
+        let Reading {
+            topics,
+            mut decoded,
+        } = self;
+        let listing = || {
+            if topics.is_empty() {
+                "it holds no messages".to_string()
+            } else {
+                let list: Vec<String> =
+                    topics.iter().map(|(t, ty)| format!("{t} ({ty})")).collect();
+                format!("its topics: {}", list.join(", "))
             }
         };
-        let Use::Decode(name) = usage else {
-            continue;
+        let finish = |topic: &str, tracks: TopicTracks| {
+            tracks
+                .finish()
+                .map_err(|e| recording(format!("topic {topic}: {e}")))
         };
-        let tracks = decoded.get_mut(name).expect("registered with its channel");
-        if tracks.kind.name != ch.schema.as_ref().map_or("", |s| s.name.as_str()) {
-            return Err(recording(format!(
-                "topic {name} carries two types: {} and {}",
-                tracks.kind.name,
-                ch.schema.as_ref().map_or("no schema", |s| s.name.as_str())
-            )));
-        }
-        tracks
-            .add(&message.data)
-            .map_err(|e| DatasetError::Message {
-                file: file.to_string(),
-                topic: name.clone(),
-                index: tracks.messages,
-                field: e.field,
-                message: e.message,
-            })?;
-    }
-    let listing = || {
-        if topics.is_empty() {
-            "it holds no messages".to_string()
-        } else {
-            let list: Vec<String> = topics.iter().map(|(t, ty)| format!("{t} ({ty})")).collect();
-            format!("its topics: {}", list.join(", "))
-        }
-    };
-    let finish = |topic: &str, tracks: TopicTracks| {
-        tracks
-            .finish()
-            .map_err(|e| recording(format!("topic {topic}: {e}")))
-    };
-    match topic {
-        Some(t) => match decoded.remove(t) {
-            Some(tracks) => finish(t, tracks),
-            None => Err(recording(format!(
-                "no messages on topic {t}; {}",
-                listing()
-            ))),
-        },
-        None => {
-            let mut all = decoded.into_iter();
-            match (all.next(), all.next()) {
-                (Some((t, tracks)), None) => finish(&t, tracks),
-                (None, _) => Err(recording(format!(
-                    "no topic of a type cliff reads ({}); {}",
-                    type_names(),
+        match topic {
+            Some(t) => match decoded.remove(t) {
+                Some(tracks) => finish(t, tracks),
+                None => Err(recording(format!(
+                    "no messages on topic {t}; {}",
                     listing()
                 ))),
-                (Some((a, _)), Some((b, _))) => Err(recording(format!(
-                    "several topics hold people ({a}, {b}{}): name the one to read",
-                    if all.next().is_some() { ", ..." } else { "" }
-                ))),
+            },
+            None => {
+                let mut all = decoded.into_iter();
+                match (all.next(), all.next()) {
+                    (Some((t, tracks)), None) => finish(&t, tracks),
+                    (None, _) => Err(recording(format!(
+                        "no topic of a type cliff reads ({}); {}",
+                        type_names(),
+                        listing()
+                    ))),
+                    (Some((a, _)), Some((b, _))) => Err(recording(format!(
+                        "several topics hold people ({a}, {b}{}): name the one to read",
+                        if all.next().is_some() { ", ..." } else { "" }
+                    ))),
+                }
             }
         }
     }
