@@ -149,7 +149,8 @@ pub struct ReadArgs {
     /// `vx=`, `vy=`; without a velocity the positions give it.
     #[arg(long, value_name = "FIELD=COLUMN,...")]
     pub columns: Option<Columns>,
-    /// The topic of a rosbag2 recording (an MCAP file, read whatever --format says) to
+    /// The topic of a rosbag2 recording (an MCAP file or a bag's folder of them, read
+    /// whatever --format says) to
     /// read tracks from: people_msgs/msg/People (`/people`) or
     /// autoware_perception_msgs/msg/TrackedObjects (its pedestrians); default: the
     /// recording's one topic of such a type.
@@ -167,7 +168,7 @@ pub struct ReadArgs {
 #[derive(Args, Debug)]
 pub struct TrackArgs {
     /// Trajectory files (CSV without header: time, person_id, x, y, speed, motion_angle),
-    /// or rosbag2 recordings (MCAP files of a people tracker, see --topic).
+    /// or rosbag2 recordings (MCAP files or bag folders of a people tracker, see --topic).
     #[arg(long, num_args = 1.., required = true, value_name = "FILE")]
     pub tracks: Vec<PathBuf>,
     /// Trajectory file format: thor, atc, magni, csv or rosbag2 (MCAP files are read as
