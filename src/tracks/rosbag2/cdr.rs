@@ -8,11 +8,6 @@
 //! Every read checks that the bytes are there, and a length or count is checked against
 //! the bytes left before anything is allocated: a count of four billion in a 100-byte
 //! message is an error, not a 4 GB allocation.
-//!
-//! ```ignore
-//! let mut r = Cdr::new(&[0, 1, 0, 0, 7, 0, 0, 0])?;
-//! assert_eq!(r.u32()?, 7);
-//! ```
 
 use std::fmt;
 
