@@ -1,6 +1,7 @@
 //! Property tests of the file readers: random mutations of the real map CSV,
-//! snapshot and trajectory files never panic, and each either loads (and keeps its
-//! invariants) or gives an error naming the file, line and column. Seeded, so a failure
+//! snapshot and trajectory files (and of rosbag2 recordings) never panic, and each
+//! either loads (and keeps its invariants) or gives an error naming the file, line and
+//! column (for a recording: the file, and the message of a bad one). Seeded, so a failure
 //! reproduces; the same readers are fuzzed for much longer by the targets in `fuzz/`.
 
 use std::path::Path;
@@ -13,7 +14,8 @@ use cliff::map::{
 };
 use cliff::tracks::{Columns, NamedTracks, parse_named};
 use cliff::tracks::{
-    DatasetError, Format, MAX_ANGLE, MAX_POSITION, MAX_SPEED, MAX_TIME, Track, parse_track_bytes,
+    DatasetError, Format, MAX_ANGLE, MAX_POSITION, MAX_SPEED, MAX_TIME, Track, parse_recording,
+    parse_track_bytes,
 };
 use rand::{Rng, RngExt, SeedableRng};
 use rand_xoshiro::Xoshiro256PlusPlus;
@@ -353,6 +355,25 @@ fn fuzz_seed_corpus_replays_without_panics() {
             );
         }
     }
+    // rosbag2 recordings written by the `rosbags` package (fuzz README), the mode byte
+    // picking the topic as the `tracks_rosbag2` target does; each holds people, and
+    // every cut of one is an error naming the file, never a panic
+    for (name, bytes) in files("tracks_rosbag2") {
+        let topic = match bytes[0] % 3 {
+            0 => None,
+            1 => Some("/people"),
+            _ => Some("/perception/object_recognition/tracking/objects"),
+        };
+        let tracks = parse_recording(&bytes[1..], &name, topic).expect(&name);
+        assert!(
+            tracks.iter().map(|t| t.rows.len()).sum::<usize>() >= 2,
+            "{name}"
+        );
+        for n in (0..bytes.len() - 1).step_by(13) {
+            let e = parse_recording(&bytes[1..1 + n], &name, topic).unwrap_err();
+            assert!(e.to_string().starts_with(&format!("{name}: ")), "{e}");
+        }
+    }
 }
 
 /// An input of the `tracks_named` fuzz target read as the target reads it: the first
@@ -602,4 +623,78 @@ fn mutated_time_of_day_sets_load_or_are_refused() {
         loaded > 50 && refused > 500,
         "{loaded} loaded, {refused} refused"
     );
+}
+
+/// Apply 1 to 4 random binary edits to a recording: bit flips, a 4- or 8-byte field
+/// overwritten with an odd value (a length of four billion, zero, NaN, a huge float),
+/// a span deleted, the file cut.
+fn mutate_binary(bytes: &[u8], rng: &mut impl Rng) -> Vec<u8> {
+    const ODD: [[u8; 8]; 5] = [
+        [0xff; 8],
+        [0; 8],
+        [0, 0, 0, 0, 0, 0, 0xf8, 0x7f], // NaN, little-endian
+        [0, 0, 0, 0, 0, 0, 0xf0, 0x7f], // infinity
+        [0x00, 0x00, 0x00, 0x80, 0x00, 0x00, 0x00, 0x00],
+    ];
+    let mut b = bytes.to_vec();
+    for _ in 0..rng.random_range(1..=4) {
+        if b.len() < 16 {
+            break;
+        }
+        let i = rng.random_range(0..b.len() - 8);
+        match rng.random_range(0..5) {
+            0 | 1 => b[i] ^= 1 << rng.random_range(0..8),
+            2 => {
+                let width = if rng.random_range(0..2) == 0 { 4 } else { 8 };
+                let odd = ODD[rng.random_range(0..ODD.len())];
+                b[i..i + width].copy_from_slice(&odd[8 - width..]);
+            }
+            3 => {
+                let j = (i + rng.random_range(1..40)).min(b.len());
+                b.drain(i..j);
+            }
+            _ => b.truncate(i),
+        }
+    }
+    b
+}
+
+#[test]
+fn mutated_recordings_load_or_name_the_file() {
+    let mut rng = Xoshiro256PlusPlus::seed_from_u64(14);
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("fuzz/corpus/tracks_rosbag2");
+    let mut outcomes = [0usize; 3]; // loaded, a bad message, a bad recording
+    for entry in std::fs::read_dir(root).unwrap() {
+        let path = entry.unwrap().path();
+        let bytes = std::fs::read(&path).unwrap();
+        for _ in 0..1500 {
+            let m = mutate_binary(&bytes[1..], &mut rng);
+            match parse_recording(&m, "m.mcap", None) {
+                Ok(tracks) => {
+                    outcomes[0] += 1;
+                    for t in &tracks {
+                        assert!(t.rows.windows(2).all(|w| w[0].t < w[1].t));
+                        for r in &t.rows {
+                            assert!(r.t.abs() <= MAX_TIME && r.position.is_finite(), "{r:?}");
+                            assert!(r.position.abs().max_element() <= MAX_POSITION);
+                            assert!((0.0..=MAX_SPEED).contains(&r.speed), "{r:?}");
+                            assert!(r.angle.abs() <= MAX_ANGLE, "{r:?}");
+                        }
+                    }
+                }
+                Err(DatasetError::Message { file, index, .. }) => {
+                    outcomes[1] += 1;
+                    assert_eq!(file, "m.mcap");
+                    assert!(index >= 1);
+                }
+                Err(DatasetError::Recording { file, .. }) => {
+                    outcomes[2] += 1;
+                    assert_eq!(file, "m.mcap");
+                }
+                Err(e) => panic!("{e}"),
+            }
+        }
+    }
+    // the mutations reach every outcome: CDR fields as well as the MCAP records
+    assert!(outcomes.iter().all(|&n| n > 20), "{outcomes:?}");
 }

@@ -1,9 +1,9 @@
-//! Arguments several functions share: the trajectory files (`tracks`, `format`) and
+//! Arguments several functions share: the trajectory files (`tracks`, `format`, `topic`) and
 //! positive numbers, checked with errors that name the argument.
 
 use std::path::PathBuf;
 
-use cliff::tracks::{Format, Track, read_many};
+use cliff::tracks::{DatasetError, Format, ReadError, Track, read_many_as};
 use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyString;
@@ -17,8 +17,14 @@ pub fn parse_format(format: &str) -> PyResult<Format> {
         .map_err(|e: String| PyValueError::new_err(format!("format: {e}")))
 }
 
-/// The `tracks` argument: one path or a sequence of paths, read with `format`.
-pub fn read_tracks_arg(tracks: &Bound<'_, PyAny>, format: Format) -> PyResult<Vec<Track>> {
+/// The `tracks` argument: one path or a sequence of paths, read with `format` (rosbag2
+/// recordings, MCAP files, whatever the format: their `topic`, or their one topic of
+/// people).
+pub fn read_tracks_arg(
+    tracks: &Bound<'_, PyAny>,
+    format: Format,
+    topic: Option<&str>,
+) -> PyResult<Vec<Track>> {
     let paths: Vec<PathBuf> = if tracks.is_instance_of::<PyString>()
         || tracks.hasattr("__fspath__")?
     {
@@ -41,8 +47,8 @@ pub fn read_tracks_arg(tracks: &Bound<'_, PyAny>, format: Format) -> PyResult<Ve
             )));
         }
     }
-    read_many(&paths, format).map_err(|e| match &e {
-        cliff::tracks::DatasetError::Io { file, source } => io_err("tracks", file, source),
+    read_many_as(&paths, format, None, topic).map_err(|e| match &e {
+        ReadError::Dataset(DatasetError::Io { file, source }) => io_err("tracks", file, source),
         _ => PyValueError::new_err(format!("tracks: {e}")),
     })
 }

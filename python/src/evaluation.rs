@@ -79,8 +79,10 @@ impl Evaluation {
 ///
 /// Args:
 ///     map: the Map to predict with.
-///     tracks: a trajectory file or a list of them.
-///     format: "thor" or "atc".
+///     tracks: a trajectory file or a list of them (rosbag2 recordings too, as in
+///         ``build_map``).
+///     format: "thor" or "atc" ("magni", "csv"; MCAP files are read as recordings).
+///     topic: the topic of rosbag2 recordings (None: their one topic of people).
 ///     protocol: "reference" (the published code's row-based rules, for parity) or
 ///         "seconds" (the same rules stated in time).
 ///     methods: list of "cliff", "cvm" and/or "improved" (None: cliff and cvm).
@@ -93,7 +95,7 @@ impl Evaluation {
 #[pyo3(signature = (map, tracks, *, format = "thor", protocol = "seconds", obs = 3.2, dt = 0.4,
     horizon = 12.0, radius = 0.7071067811865476, beta = 1.0, k = 20, seeds = 1,
     methods = None, sigma = 1.5,
-    heading = "circular-mean"))]
+    heading = "circular-mean", topic = None))]
 #[allow(clippy::too_many_arguments)]
 pub fn evaluate(
     py: Python<'_>,
@@ -111,6 +113,7 @@ pub fn evaluate(
     methods: Option<Vec<String>>,
     sigma: f64,
     heading: &str,
+    topic: Option<&str>,
 ) -> PyResult<Evaluation> {
     let format = parse_format(format)?;
     let protocol: Protocol = protocol
@@ -174,7 +177,7 @@ pub fn evaluate(
         methods,
         options: Default::default(),
     };
-    let tracks = read_tracks_arg(tracks, format)?;
+    let tracks = read_tracks_arg(tracks, format, topic)?;
     let m = map.get().inner.clone();
     let report = py
         .detach(move || rust_evaluate(&m, &tracks, &cfg, &|| {}))

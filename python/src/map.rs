@@ -230,25 +230,27 @@ impl Map {
         .into_pyarray(py)
     }
 
-    /// score(tracks, *, format="thor", radius=None) -> dict
+    /// score(tracks, *, format="thor", radius=None, topic=None) -> dict
     ///
     /// How well the map explains held-out trajectories (as ``cliff map score``): every
     /// moving row is scored at the nearest location strictly within ``radius`` metres
     /// (``None``: the map's grid step). Keys:
     /// ``mean_log_likelihood``, ``median_log_likelihood``, ``observations`` (moving rows),
     /// ``standing``, ``unmatched`` (no location near), ``share_below`` (share of matched
-    /// rows scoring below ``bad_below``), ``bad_below``, ``radius``.
-    #[pyo3(signature = (tracks, *, format = "thor", radius = None))]
+    /// rows scoring below ``bad_below``), ``bad_below``, ``radius``. ``tracks`` and
+    /// ``topic`` as in ``build_map``.
+    #[pyo3(signature = (tracks, *, format = "thor", radius = None, topic = None))]
     fn score<'py>(
         &self,
         py: Python<'py>,
         tracks: &Bound<'py, PyAny>,
         format: &str,
         radius: Option<f64>,
+        topic: Option<&str>,
     ) -> PyResult<Bound<'py, PyDict>> {
         let format = parse_format(format)?;
         let radius = positive("radius", radius.unwrap_or(self.inner.grid().step()))?;
-        let tracks = read_tracks_arg(tracks, format)?;
+        let tracks = read_tracks_arg(tracks, format, topic)?;
         let map = self.inner.clone();
         let r = py
             .detach(move || {
@@ -284,26 +286,30 @@ impl Map {
     }
 }
 
-/// build_map(tracks, *, format="thor", grid=1.0, radius=1.0) -> Map
+/// build_map(tracks, *, format="thor", grid=1.0, radius=1.0, topic=None) -> Map
 ///
 /// Build a CLiFF-map from recorded trajectories (as ``cliff map build``): mean shift
 /// and EM on the velocities seen within ``radius`` metres of every node of a grid with
 /// step ``grid`` metres. ``tracks`` is a trajectory file or a list of them, in
-/// ``format`` ("thor" or "atc": rows of time, person id, x, y, speed, motion angle).
-/// Runs on all cores, with the GIL released.
+/// ``format`` ("thor" or "atc": rows of time, person id, x, y, speed, motion angle;
+/// "magni", "csv"), or rosbag2 recordings (MCAP files, read as such whatever the
+/// format): the messages of ``topic`` (people_msgs/msg/People or
+/// autoware_perception_msgs/msg/TrackedObjects), by default of the recording's one
+/// topic of such a type. Runs on all cores, with the GIL released.
 #[pyfunction]
-#[pyo3(signature = (tracks, *, format = "thor", grid = 1.0, radius = 1.0))]
+#[pyo3(signature = (tracks, *, format = "thor", grid = 1.0, radius = 1.0, topic = None))]
 pub fn build_map(
     py: Python<'_>,
     tracks: &Bound<'_, PyAny>,
     format: &str,
     grid: f64,
     radius: f64,
+    topic: Option<&str>,
 ) -> PyResult<Map> {
     let format = parse_format(format)?;
     let grid = positive("grid", grid)?;
     let radius = positive("radius", radius)?;
-    let tracks = read_tracks_arg(tracks, format)?;
+    let tracks = read_tracks_arg(tracks, format, topic)?;
     let built = py
         .detach(move || {
             let obs = observations_from_tracks(&tracks);

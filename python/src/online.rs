@@ -73,20 +73,22 @@ impl OnlineMap {
         })
     }
 
-    /// update(tracks, *, format="thor") -> dict
+    /// update(tracks, *, format="thor", topic=None) -> dict
     ///
     /// Fold a batch of trajectory files into the map. Returns what changed:
     /// ``observations``, ``updated`` (locations that got samples), ``created`` (new
-    /// locations), ``added``, ``merged`` and ``pruned`` (components).
-    #[pyo3(signature = (tracks, *, format = "thor"))]
+    /// locations), ``added``, ``merged`` and ``pruned`` (components). ``tracks`` and
+    /// ``topic`` as in ``build_map``.
+    #[pyo3(signature = (tracks, *, format = "thor", topic = None))]
     fn update<'py>(
         &self,
         py: Python<'py>,
         tracks: &Bound<'py, PyAny>,
         format: &str,
+        topic: Option<&str>,
     ) -> PyResult<Bound<'py, PyDict>> {
         let format = parse_format(format)?;
-        let tracks = read_tracks_arg(tracks, format)?;
+        let tracks = read_tracks_arg(tracks, format, topic)?;
         let report = py
             .detach(|| {
                 let obs = observations_from_tracks(&tracks);

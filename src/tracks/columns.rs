@@ -404,14 +404,14 @@ fn speed_from_positions(c: &Columns) -> bool {
 }
 
 /// Heading of a velocity; 0 when it is zero (a standing row).
-fn heading_of(v: DVec2) -> f64 {
+pub(crate) fn heading_of(v: DVec2) -> f64 {
     if v == DVec2::ZERO { 0.0 } else { v.to_angle() }
 }
 
 /// Speed and angle of each row from the position difference to the previous row (the
 /// first row: to the next one; a lone row stands still). A speed above [`MAX_SPEED`]
 /// (infinite too: rows 1e-310 s apart) is returned with the two rows it comes from.
-fn velocities_from_positions(rows: &mut [Row]) -> Result<(), (usize, usize, f64)> {
+pub(crate) fn velocities_from_positions(rows: &mut [Row]) -> Result<(), (usize, usize, f64)> {
     let n = rows.len();
     for i in 0..n {
         let (a, b) = match (i.checked_sub(1), i + 1 < n) {
@@ -435,7 +435,7 @@ fn velocities_from_positions(rows: &mut [Row]) -> Result<(), (usize, usize, f64)
 }
 
 /// Numeric ids for the file's id strings (see the module documentation).
-fn number_ids(raw: &[String]) -> Vec<u64> {
+pub(crate) fn number_ids(raw: &[String]) -> Vec<u64> {
     let distinct = |ids: &[u64]| {
         let mut sorted = ids.to_vec();
         sorted.sort_unstable();

@@ -1,5 +1,5 @@
 //! The trajectory file formats: [`Format`], parsed from and shown as the names the
-//! command line takes (`thor`, `atc`, `magni`, `csv`).
+//! command line takes (`thor`, `atc`, `magni`, `csv`, `rosbag2`).
 
 use std::fmt;
 use std::str::FromStr;
@@ -17,6 +17,9 @@ pub enum Format {
     /// A CSV with a header row and named columns; without a mapping
     /// ([`super::columns`]) the columns `t, id, x, y`.
     Csv,
+    /// A rosbag2 recording (MCAP) of a people tracker ([`super::rosbag2`]). A file that
+    /// begins with the MCAP magic is read as one whatever format is named.
+    Rosbag2,
 }
 
 impl FromStr for Format {
@@ -27,8 +30,9 @@ impl FromStr for Format {
             "atc" => Ok(Format::Atc),
             "magni" | "thor-magni" => Ok(Format::Magni),
             "csv" => Ok(Format::Csv),
+            "rosbag2" | "mcap" => Ok(Format::Rosbag2),
             other => Err(format!(
-                "unknown track format '{other}' (expected thor, atc, magni or csv)"
+                "unknown track format '{other}' (expected thor, atc, magni, csv or rosbag2)"
             )),
         }
     }
@@ -41,6 +45,7 @@ impl fmt::Display for Format {
             Format::Atc => "atc",
             Format::Magni => "magni",
             Format::Csv => "csv",
+            Format::Rosbag2 => "rosbag2",
         })
     }
 }

@@ -8,10 +8,11 @@
 //! | file | what it holds |
 //! |---|---|
 //! | [`track`] | [`Row`], [`Track`], the bounds, [`DatasetError`], [`keep_time_range`] |
-//! | [`format`] | [`Format`]: `thor`, `atc`, `magni`, `csv` |
+//! | [`format`] | [`Format`]: `thor`, `atc`, `magni`, `csv`, `rosbag2` |
 //! | [`read`] | the entry points: [`read_tracks`], [`read_many`], [`parse_tracks`], [`read_many_as`] |
 //! | `six_columns` | the THÖR and ATC reader (no header, six columns) |
 //! | [`columns`] | the named-column reader (THÖR-MAGNI, any CSV with a header): [`Columns`] |
+//! | [`rosbag2`] | rosbag2 recordings (MCAP) of people trackers: [`read_recording`] |
 //! | [`scene`] | synthetic people walking in the built-in demo hall |
 //!
 //! ```
@@ -24,6 +25,7 @@
 pub mod columns;
 pub mod format;
 pub mod read;
+pub mod rosbag2;
 pub mod scene;
 mod six_columns;
 pub mod track;
@@ -31,6 +33,7 @@ pub mod track;
 pub use columns::{Columns, NamedTracks, parse_named, read_many_named, read_named};
 pub use format::Format;
 pub use read::{ReadError, parse_track_bytes, parse_tracks, read_many, read_many_as, read_tracks};
+pub use rosbag2::{parse_recording, read_recording};
 pub use track::{
     DatasetError, MAX_ANGLE, MAX_POSITION, MAX_SPEED, MAX_TIME, MAX_TRACK_FILE_BYTES, Row, Track,
     keep_time_range,

@@ -13,6 +13,7 @@ use std::path::Path;
 
 use super::columns::{Columns, parse_named, read_many_named};
 use super::format::Format;
+use super::rosbag2::{is_mcap, is_recording, parse_recording, read_recording};
 use super::six_columns::parse_six_columns;
 use super::track::{DatasetError, MAX_TRACK_FILE_BYTES, Track};
 use crate::bounded_read::{line_column, read_at_most};
@@ -20,8 +21,15 @@ use crate::bounded_read::{line_column, read_at_most};
 /// Read the tracks of one file.
 ///
 /// Files larger than [`MAX_TRACK_FILE_BYTES`] are refused before they are read; the
-/// rows are then checked as [`parse_tracks`] describes.
+/// rows are then checked as [`parse_tracks`] describes. A rosbag2 recording (a file that
+/// begins with the MCAP magic, a bag's folder of `.mcap` files, or any file with
+/// [`Format::Rosbag2`]) is read as
+/// [`read_recording`] reads it without a topic: its one topic of people; its size is
+/// not limited, as it streams.
 pub fn read_tracks(path: &Path, format: Format) -> Result<Vec<Track>, DatasetError> {
+    if format == Format::Rosbag2 || is_recording(path) {
+        return read_recording(path, None);
+    }
     let file = path.display().to_string();
     let bytes = read_at_most(path, MAX_TRACK_FILE_BYTES).map_err(|source| DatasetError::Io {
         file: file.clone(),
@@ -31,12 +39,16 @@ pub fn read_tracks(path: &Path, format: Format) -> Result<Vec<Track>, DatasetErr
 }
 
 /// Parse trajectory bytes (UTF-8 text; anything else is an error at its line and
-/// column); `file` names the source in errors.
+/// column; a rosbag2 recording, as [`read_tracks`] says); `file` names the source in
+/// errors.
 pub fn parse_track_bytes(
     bytes: &[u8],
     file: &str,
     format: Format,
 ) -> Result<Vec<Track>, DatasetError> {
+    if format == Format::Rosbag2 || is_mcap(bytes) {
+        return parse_recording(bytes, file, None);
+    }
     match std::str::from_utf8(bytes) {
         Ok(text) => parse_tracks(text, file, format),
         Err(e) => {
@@ -67,8 +79,10 @@ pub fn read_many(paths: &[impl AsRef<Path>], format: Format) -> Result<Vec<Track
 /// |x|, |y| <= [`MAX_POSITION`], 0 <= speed <= [`MAX_SPEED`],
 /// |angle| <= [`MAX_ANGLE`]; a person id is a whole number in `0..2^64`; a person's
 /// times strictly increase. Memory grows with the rows read, never with a value.
+/// ([`Format::Rosbag2`] is binary: text given as one is read as bytes.)
 pub fn parse_tracks(text: &str, file: &str, format: Format) -> Result<Vec<Track>, DatasetError> {
     match format {
+        Format::Rosbag2 => parse_recording(text.as_bytes(), file, None),
         Format::Thor | Format::Atc => parse_six_columns(text, file),
         Format::Magni => Ok(parse_named(text, file, &Columns::magni())?.tracks),
         Format::Csv => Ok(parse_named(text, file, &Columns::default())?.tracks),
@@ -77,15 +91,41 @@ pub fn parse_tracks(text: &str, file: &str, format: Format) -> Result<Vec<Track>
 
 /// Read and concatenate the tracks of several files in `format`; `columns`, when given,
 /// names the columns of a [`Format::Csv`] or [`Format::Magni`] file (and is an error
-/// with the headerless formats).
+/// with the headerless formats); `topic`, when given, the topic of rosbag2 recordings
+/// (and is an error with a text file). Files that begin with the MCAP magic, and bag
+/// folders, are read as recordings whatever `format` says.
 pub fn read_many_as(
     paths: &[impl AsRef<Path>],
     format: Format,
     columns: Option<&Columns>,
+    topic: Option<&str>,
 ) -> Result<Vec<Track>, ReadError> {
+    let bags: Vec<bool> = paths
+        .iter()
+        .map(|p| format == Format::Rosbag2 || is_recording(p.as_ref()))
+        .collect();
+    if bags.iter().any(|&b| b) {
+        let mut all = Vec::new();
+        for (p, bag) in paths.iter().zip(bags) {
+            let p = p.as_ref();
+            if !bag {
+                return Err(ReadError::Mixed(p.display().to_string()));
+            }
+            if columns.is_some() {
+                return Err(ReadError::ColumnsWithRecording);
+            }
+            all.extend(read_recording(p, topic)?);
+        }
+        return Ok(all);
+    }
+    if topic.is_some() {
+        return Err(ReadError::TopicWithoutRecording(format));
+    }
     match (format, columns) {
         (Format::Csv | Format::Magni, Some(c)) => Ok(read_many_named(paths, c)?),
-        (Format::Thor | Format::Atc, Some(_)) => Err(ReadError::ColumnsWithoutHeader(format)),
+        (Format::Thor | Format::Atc | Format::Rosbag2, Some(_)) => {
+            Err(ReadError::ColumnsWithoutHeader(format))
+        }
         (_, None) => Ok(read_many(paths, format)?),
     }
 }
@@ -99,6 +139,17 @@ pub enum ReadError {
     /// A column mapping was given for a format without a header row.
     #[error("a column mapping needs a file with a header row (format csv or magni), not {0}")]
     ColumnsWithoutHeader(Format),
+    /// A column mapping was given for rosbag2 recordings.
+    #[error("a column mapping is for CSV files with a header row, not rosbag2 recordings")]
+    ColumnsWithRecording,
+    /// A topic was given for text files.
+    #[error("a topic is for rosbag2 recordings (MCAP files), not {0} text files")]
+    TopicWithoutRecording(Format),
+    /// Recordings and text files were given together.
+    #[error(
+        "{0} is not a rosbag2 recording (MCAP) like the other files given: read recordings and text files separately"
+    )]
+    Mixed(String),
 }
 
 #[cfg(test)]

@@ -40,6 +40,30 @@ pub enum DatasetError {
         /// What is wrong.
         message: String,
     },
+    /// A bad message in a recording (a rosbag2 bag): the topic, the message's place
+    /// among the topic's messages (1-based, in file order) and the field.
+    #[error("{file}: topic {topic}, message {index}: {field}: {message}")]
+    Message {
+        /// The file.
+        file: String,
+        /// The topic.
+        topic: String,
+        /// The message's place among the topic's messages, from 1.
+        index: u64,
+        /// The field, as a path into the message (`people[2].position.x`).
+        field: String,
+        /// What is wrong.
+        message: String,
+    },
+    /// A recording that cannot be read as tracks: not MCAP, damaged, or without the
+    /// topic asked for (the message lists the topics there are).
+    #[error("{file}: {message}")]
+    Recording {
+        /// The file.
+        file: String,
+        /// What is wrong.
+        message: String,
+    },
     /// Reading failed.
     #[error("{file}: {source}")]
     Io {

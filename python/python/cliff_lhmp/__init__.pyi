@@ -43,7 +43,12 @@ class Map:
     @property
     def component_location(self) -> npt.NDArray[np.int64]: ...
     def score(
-        self, tracks: _Tracks, *, format: str = "thor", radius: Optional[float] = None
+        self,
+        tracks: _Tracks,
+        *,
+        format: str = "thor",
+        radius: Optional[float] = None,
+        topic: Optional[str] = None,
     ) -> Dict[str, float]: ...
     def predict(
         self,
@@ -75,7 +80,9 @@ class OnlineMap:
         decay: float = 0.5,
         radius: Optional[float] = None,
     ) -> None: ...
-    def update(self, tracks: _Tracks, *, format: str = "thor") -> Dict[str, int]: ...
+    def update(
+        self, tracks: _Tracks, *, format: str = "thor", topic: Optional[str] = None
+    ) -> Dict[str, int]: ...
     @property
     def count_scale(self) -> float: ...
     def map(self) -> Map: ...
@@ -179,7 +186,12 @@ def predict(
     time: _Time = None,
 ) -> Prediction: ...
 def build_map(
-    tracks: _Tracks, *, format: str = "thor", grid: float = 1.0, radius: float = 1.0
+    tracks: _Tracks,
+    *,
+    format: str = "thor",
+    grid: float = 1.0,
+    radius: float = 1.0,
+    topic: Optional[str] = None,
 ) -> Map: ...
 def evaluate(
     map: Map,
@@ -197,4 +209,5 @@ def evaluate(
     methods: Optional[Sequence[str]] = None,
     sigma: float = 1.5,
     heading: str = "circular-mean",
+    topic: Optional[str] = None,
 ) -> Evaluation: ...

@@ -174,6 +174,13 @@ pub struct ReadArgs {
     /// `vx=`, `vy=`; without a velocity the positions give it.
     #[arg(long, value_name = "FIELD=COLUMN,...")]
     pub columns: Option<Columns>,
+    /// The topic of a rosbag2 recording (an MCAP file or a bag's folder of them, read
+    /// whatever --format says) to
+    /// read tracks from: people_msgs/msg/People (`/people`) or
+    /// autoware_perception_msgs/msg/TrackedObjects (its pedestrians); default: the
+    /// recording's one topic of such a type.
+    #[arg(long, value_name = "TOPIC")]
+    pub topic: Option<String>,
     /// Keep only rows at or after this time (s, as in the file).
     #[arg(long, value_name = "S")]
     pub time_from: Option<f64>,
@@ -185,17 +192,19 @@ pub struct ReadArgs {
 /// Trajectory input shared by the learning commands.
 #[derive(Args, Debug)]
 pub struct TrackArgs {
-    /// Trajectory files (CSV without header: time, person_id, x, y, speed, motion_angle).
+    /// Trajectory files (CSV without header: time, person_id, x, y, speed, motion_angle),
+    /// or rosbag2 recordings (MCAP files or bag folders of a people tracker, see --topic).
     #[arg(long, num_args = 1.., required = true, value_name = "FILE")]
     pub tracks: Vec<PathBuf>,
-    /// Trajectory file format: thor, atc, magni or csv.
+    /// Trajectory file format: thor, atc, magni, csv or rosbag2 (MCAP files are read as
+    /// rosbag2 recordings whatever the format).
     #[arg(long, default_value = "atc", value_parser = parse_format)]
     pub format: Format,
     #[command(flatten)]
     pub read: ReadArgs,
 }
 
-/// A trajectory file format by name (thor, atc, magni, csv).
+/// A trajectory file format by name (thor, atc, magni, csv, rosbag2).
 pub fn parse_format(s: &str) -> Result<Format, String> {
     s.parse()
 }

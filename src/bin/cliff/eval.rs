@@ -28,11 +28,12 @@ pub struct EvalArgs {
     /// a set's slice (+9h, 32400, -5h); default: the offset stored in the set.
     #[arg(long, value_name = "DURATION", value_parser = clock::signed_duration, allow_hyphen_values = true)]
     pub clock_offset: Option<f64>,
-    /// Trajectory files to evaluate on.
+    /// Trajectory files to evaluate on (or rosbag2 recordings, MCAP files: see --topic).
     #[arg(long, required = true, num_args = 1..)]
     pub tracks: Vec<PathBuf>,
-    /// Trajectory file format: thor, atc, magni (THÖR-MAGNI, header row) or csv (header
-    /// row, see --columns).
+    /// Trajectory file format: thor, atc, magni (THÖR-MAGNI, header row), csv (header
+    /// row, see --columns) or rosbag2 (MCAP files are read as recordings whatever the
+    /// format).
     #[arg(long, default_value = "thor")]
     pub format: Format,
     #[command(flatten)]

@@ -47,7 +47,7 @@ pub fn load_tracks_with(paths: &[PathBuf], format: Format, read: &ReadArgs) -> R
             bail!("track file {} does not exist", p.display());
         }
     }
-    let mut tracks = read_many_as(paths, format, read.columns.as_ref())?;
+    let mut tracks = read_many_as(paths, format, read.columns.as_ref(), read.topic.as_deref())?;
     if read.time_from.is_some() || read.time_until.is_some() {
         let from = read.time_from.unwrap_or(f64::NEG_INFINITY);
         let until = read.time_until.unwrap_or(f64::INFINITY);

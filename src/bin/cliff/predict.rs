@@ -29,7 +29,7 @@ pub struct PredictArgs {
     /// Trajectory file holding the person.
     #[arg(long)]
     pub tracks: PathBuf,
-    /// Trajectory file format: thor, atc, magni or csv.
+    /// Trajectory file format: thor, atc, magni, csv or rosbag2 (MCAP files are read as recordings whatever the format; see --topic).
     #[arg(long, default_value = "thor")]
     pub format: Format,
     #[command(flatten)]
