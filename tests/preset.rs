@@ -64,15 +64,31 @@ fn improved_predicts_as_cliff_with_the_preset() {
     )
     .unwrap();
     assert_ne!(plain.positions(), direct.positions());
-    // a rollout resolves, whatever options it is given afterwards
+    // a rollout resolves, whatever options it is given afterwards (but for coasting,
+    // which stays the caller's)
     let r = Rollout::new(&asked)
+        .unwrap()
+        .with_options(Options {
+            follow: 9.0,
+            speed_beta: 3.0,
+            ..Options::default()
+        })
+        .unwrap();
+    assert_eq!((r.params(), r.options()), (&p, &o));
+    let coasting = Rollout::new(&asked)
         .unwrap()
         .with_options(Options {
             coast: 3.0,
             ..Options::default()
         })
         .unwrap();
-    assert_eq!((r.params(), r.options()), (&p, &o));
+    assert_eq!(
+        coasting.options(),
+        &Options {
+            coast: 3.0,
+            ..IMPROVED.options
+        }
+    );
     let mut b = TrajectoryBatch::new();
     b.reshape(2, 7, p.steps());
     let mut scores = vec![0.0f32; 14];

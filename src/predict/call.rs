@@ -193,6 +193,8 @@ fn consensus(tracks: &[Point], lens: &[u32], scores: &mut [f32], centre: &mut Ve
             sum += (p[0] as f64 - c[0]).hypot(p[1] as f64 - c[1]);
         }
         let mean = if len > 0 { sum / len as f64 } else { 0.0 };
+        // positions beyond f64's range (absurd speeds) give no distance: ranked last
+        let mean = if mean.is_nan() { f64::INFINITY } else { mean };
         *score = (-mean - (steps - len) as f64 * super::CONSENSUS_STEP_PENALTY) as f32;
     }
 }
