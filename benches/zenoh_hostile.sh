@@ -10,6 +10,12 @@
 #
 #   benches/zenoh_hostile.sh                      # 3 rounds of 2 x 20 s
 #   RUNS=1 SECONDS_PER_PHASE=10 FLOOD=4000 benches/zenoh_hostile.sh
+#   DAEMON_ARGS="--zenoh-nice 0" HOSTILE_NICE=19 benches/zenoh_hostile.sh
+#
+# DAEMON_ARGS are added to cliffd's arguments (e.g. --zenoh-nice 0 runs zenoh's threads
+# at the serving loop's priority). The hostile client is a process of its own;
+# HOSTILE_NICE (default 0) is its nice value: 19 stands in for a client on another
+# host, whose CPU would not be the daemon's.
 #
 # Builds cliffd and the bench with the zenoh feature (release). Own iceoryx2 namespace
 # (prefix `cliff_hostile_`) and port 27480. Needs both cores: close other work. Not in CI.
@@ -30,7 +36,8 @@ stop() { if [ -n "$daemon" ]; then kill -INT "$daemon" 2>/dev/null || true; wait
 trap stop EXIT
 out=$(mktemp)
 for run in $(seq "$runs"); do
-    "$bin/cliffd" --service "$CLIFF_SERVICE" --zenoh "$CLIFF_ZENOH_ENDPOINT" > /dev/null 2> "$out.log" &
+    # shellcheck disable=SC2086 # DAEMON_ARGS is a list of arguments
+    "$bin/cliffd" --service "$CLIFF_SERVICE" --zenoh "$CLIFF_ZENOH_ENDPOINT" ${DAEMON_ARGS:-} > /dev/null 2> "$out.log" &
     daemon=$!
     sleep 2
     CLIFF_DAEMON_PID=$daemon timeout $((4 * SECONDS_PER_PHASE + 60)) "$bench" \

@@ -9,7 +9,14 @@
 //!
 //! Settings from the environment (the script sets them): `CLIFF_ZENOH_ENDPOINT`,
 //! `CLIFF_SERVICE`, `CLIFF_IPC_PREFIX`, `CLIFF_DAEMON_PID`, `SECONDS_PER_PHASE`
-//! (default 20), `FLOOD` (requests sent at once per batch, default 4000).
+//! (default 20), `FLOOD` (requests sent at once per batch, default 4000),
+//! `HOSTILE_NICE` (the hostile process's nice value, default 0).
+//!
+//! The hostile client runs as a process of its own (this program again, with
+//! `CLIFF_HOSTILE_ROLE=hostile`), so that it shares no zenoh runtime with the remote
+//! victim. On one machine its own CPU (encoding hundreds of megabytes a second) is
+//! taken from the daemon's cores, which a client on another host would not do;
+//! `HOSTILE_NICE=19` stands in for that host.
 
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
@@ -282,6 +289,38 @@ fn proc_kib(pid: &str, key: &str) -> u64 {
         .unwrap_or(0)
 }
 
+/// The hostile client's process: floods and fuzzes for `seconds`, then prints what it
+/// got back (one JSON object) and ends.
+fn hostile_process(endpoint: &str, key: &str, n: usize, seconds: u64) {
+    let stop = AtomicBool::new(false);
+    let hostile = Arc::new(Hostile::default());
+    let session = raw_session(endpoint);
+    std::thread::scope(|s| {
+        s.spawn(|| flood(&session, key, n, &stop, &hostile));
+        s.spawn(|| fuzz(&session, key, &stop, &hostile));
+        std::thread::sleep(Duration::from_secs(seconds));
+        stop.store(true, Ordering::Relaxed);
+    });
+    // late replies of the flood
+    std::thread::sleep(Duration::from_secs(1));
+    println!("{}", hostile.json());
+}
+
+/// Start this program again as the hostile client, at nice `nice` (0: the victims'
+/// priority).
+fn spawn_hostile(seconds: u64, nice: u32) -> std::process::Child {
+    let exe = std::env::current_exe().expect("the bench's own path");
+    std::process::Command::new("nice")
+        .arg("-n")
+        .arg(nice.to_string())
+        .arg(exe)
+        .env("CLIFF_HOSTILE_ROLE", "hostile")
+        .env("SECONDS_PER_PHASE", seconds.to_string())
+        .stdout(std::process::Stdio::piped())
+        .spawn()
+        .expect("start the hostile client (nice, from coreutils)")
+}
+
 fn main() {
     let endpoint = env("CLIFF_ZENOH_ENDPOINT", "tcp/127.0.0.1:7447");
     let service = env("CLIFF_SERVICE", cliff_client::DEFAULT_SERVICE);
@@ -291,10 +330,13 @@ fn main() {
         .parse()
         .expect("SECONDS_PER_PHASE");
     let n: usize = env("FLOOD", "4000").parse().expect("FLOOD");
+    let hostile_nice: u32 = env("HOSTILE_NICE", "0").parse().expect("HOSTILE_NICE");
     let key = cliff_client::zenoh::key_expr_for(&service);
+    if std::env::var("CLIFF_HOSTILE_ROLE").as_deref() == Ok("hostile") {
+        return hostile_process(&endpoint, &key, n, seconds);
+    }
     for phase in ["alone", "beside-hostile"] {
         let stop = Arc::new(AtomicBool::new(false));
-        let hostile = Arc::new(Hostile::default());
         let rss_before = proc_kib(&pid, "VmRSS:");
         let options = ClientOptions {
             deadline: Duration::from_secs(2),
@@ -310,25 +352,34 @@ fn main() {
         )
         .expect("connect over zenoh");
         let near = Client::connect_with(&service, options).expect("connect over iceoryx2");
-        let session = (phase == "beside-hostile").then(|| raw_session(&endpoint));
+        // the hostile client is a process of its own, as it would be on another host:
+        // it shares no zenoh runtime with the remote victim
+        let hostile = (phase == "beside-hostile").then(|| {
+            let child = spawn_hostile(seconds, hostile_nice);
+            // its session and first batch are on their way before the victims start
+            std::thread::sleep(Duration::from_millis(500));
+            child
+        });
         let (mut far, mut near) = std::thread::scope(|s| {
             let far = s.spawn(|| victim(far, &stop, 20));
             let near = s.spawn(|| victim(near, &stop, 20));
-            if let Some(session) = &session {
-                s.spawn(|| flood(session, &key, n, &stop, &hostile));
-                s.spawn(|| fuzz(session, &key, &stop, &hostile));
-            }
             std::thread::sleep(Duration::from_secs(seconds));
             stop.store(true, Ordering::Relaxed);
             (far.join().unwrap(), near.join().unwrap())
         });
-        // late replies of the flood
-        std::thread::sleep(Duration::from_secs(1));
+        let hostile_json = match hostile {
+            Some(child) => {
+                let out = child
+                    .wait_with_output()
+                    .expect("the hostile client's report");
+                String::from_utf8_lossy(&out.stdout).trim().to_string()
+            }
+            None => Hostile::default().json(),
+        };
         println!(
-            "{{\"phase\":\"{phase}\",\"seconds\":{seconds},\"flood\":{n},\"remote\":{},\"local\":{},\"hostile\":{},\"daemon_rss_kib_before\":{rss_before},\"daemon_hwm_kib\":{}}}",
+            "{{\"phase\":\"{phase}\",\"seconds\":{seconds},\"flood\":{n},\"hostile_nice\":{hostile_nice},\"remote\":{},\"local\":{},\"hostile\":{hostile_json},\"daemon_rss_kib_before\":{rss_before},\"daemon_hwm_kib\":{}}}",
             far.json(),
             near.json(),
-            hostile.json(),
             proc_kib(&pid, "VmHWM:")
         );
     }

@@ -221,6 +221,15 @@ struct Args {
     #[cfg(feature = "zenoh")]
     #[arg(long, value_name = "BYTES")]
     zenoh_max_message_bytes: Option<usize>,
+
+    /// How much lower than the daemon's own the CPU priority of zenoh's threads is (a
+    /// Linux nice increment, 0 to 19). While the serving loop has work it gets the CPU
+    /// first, so a remote client flooding the daemon with large messages slows itself
+    /// down rather than the other clients. 0 runs zenoh at the daemon's priority.
+    #[cfg(feature = "zenoh")]
+    #[arg(long, value_name = "N", default_value_t = cliff_service::zenoh::DEFAULT_NICE,
+          value_parser = clap::value_parser!(i32).range(0..=19))]
+    zenoh_nice: i32,
 }
 
 /// A duration from seconds given on the command line; `Err` names the option.
@@ -341,6 +350,7 @@ fn run() -> Result<ExitCode, String> {
             args.zenoh_config.clone(),
         );
         zs.max_message_bytes = args.zenoh_max_message_bytes;
+        zs.nice = args.zenoh_nice;
         match daemon.serve_zenoh(&zs) {
             Ok(d) => remote_line = format!("; remote clients: {d}"),
             Err(e) => {

@@ -3,7 +3,8 @@
 //! floods gets `busy` beyond its requests in flight while other remote sessions and
 //! local clients are all answered; sessions beyond the cap get `too-many-sessions`;
 //! messages above the largest request are dropped unless raised by name; the daemon's
-//! resident memory stays within the documented bound under a flood.
+//! resident memory stays within the documented bound under a flood; zenoh's threads run
+//! at a lower CPU priority than the serving loop.
 #![cfg(feature = "zenoh")]
 
 mod common;
@@ -22,6 +23,7 @@ const PORT_CAP: u16 = 27_472;
 const PORT_MESSAGE: u16 = 27_473;
 const PORT_MESSAGE_RAISED: u16 = 27_474;
 const PORT_MEMORY: u16 = 27_475;
+const PORT_NICE: u16 = 27_476;
 
 fn endpoint(port: u16) -> String {
     format!("tcp/127.0.0.1:{port}")
@@ -326,4 +328,76 @@ fn resident_memory_stays_within_the_documented_bound_under_a_flood() {
         grew <= bound,
         "the daemon grew by {grew} bytes under the flood, above the bound of {bound}"
     );
+}
+
+/// The daemon's threads: (name, nice value) read from /proc/PID/task/TID/{comm,stat}.
+fn threads(pid: i32) -> Vec<(String, i32)> {
+    let mut out = Vec::new();
+    for task in std::fs::read_dir(format!("/proc/{pid}/task")).unwrap() {
+        let tid: u32 = task.unwrap().file_name().to_str().unwrap().parse().unwrap();
+        let Ok(comm) = std::fs::read_to_string(format!("/proc/{pid}/task/{tid}/comm")) else {
+            continue; // ended meanwhile
+        };
+        let Ok(nice) = cliff_service::zenoh::nice_of(pid as u32, tid) else {
+            continue;
+        };
+        out.push((comm.trim().to_string(), nice));
+    }
+    out
+}
+
+/// Thread names zenoh's runtimes give (`rx-0`, `net-1`: see zenoh-runtime's ZRuntime).
+fn is_zenohs(name: &str) -> bool {
+    ["app-", "acc-", "tx-", "rx-", "net-"].iter().any(|p| {
+        name.strip_prefix(p)
+            .is_some_and(|n| !n.is_empty() && n.chars().all(|c| c.is_ascii_digit()))
+    })
+}
+
+#[test]
+fn zenohs_threads_run_at_a_lower_priority_than_the_serving_loop() {
+    let ns = Namespace::new("znice");
+    let daemon = Daemon::start(&ns, &["--zenoh", &endpoint(PORT_NICE), "--zenoh-nice", "7"]);
+    // a remote request makes zenoh start its receive and send threads
+    let session = raw_session(PORT_NICE);
+    let small = encoded(&demo_request(11, 1, 20, Method::Cliff));
+    assert_eq!(tally(&flood(&session, &small, 2), 2, 8), (2, 0, 0, 0));
+    let base = cliff_service::zenoh::nice_of(std::process::id(), std::process::id()).unwrap();
+    let all = threads(daemon.pid());
+    let main = cliff_service::zenoh::nice_of(daemon.pid() as u32, daemon.pid() as u32).unwrap();
+    assert_eq!(
+        main, base,
+        "the serving loop keeps the daemon's priority: {all:?}"
+    );
+    let zenoh: Vec<_> = all.iter().filter(|(name, _)| is_zenohs(name)).collect();
+    for name in ["rx-", "tx-"] {
+        assert!(
+            zenoh.iter().any(|(n, _)| n.starts_with(name)),
+            "a thread {name}* among {all:?}"
+        );
+    }
+    // cliffd-zenoh-reply and -refuse (a thread's name in /proc is cut at 15 bytes) keep
+    // the daemon's priority, as every thread of the daemon's own does
+    let ours = all
+        .iter()
+        .filter(|(n, _)| n.starts_with("cliffd-zenoh"))
+        .count();
+    assert_eq!(ours, 2, "the reply and refusal threads among {all:?}");
+    for (name, nice) in &zenoh {
+        assert_eq!(*nice, (base + 7).min(19), "thread {name}: {all:?}");
+    }
+    // and the daemon's other threads keep its priority
+    for (name, nice) in all.iter().filter(|(name, _)| !is_zenohs(name)) {
+        assert_eq!(*nice, base, "thread {name}: {all:?}");
+    }
+    drop(daemon);
+
+    // out of range: refused by name before anything starts
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_cliffd"))
+        .args(["--zenoh", &endpoint(PORT_NICE), "--zenoh-nice", "20"])
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("--zenoh-nice") && err.contains("20"), "{err}");
 }

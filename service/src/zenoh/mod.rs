@@ -6,7 +6,8 @@
 //! [`RemoteRequest`] (header and rows, see [`cliff_client::wire`]) and
 //! [`RemoteRequest::reply`] / [`RemoteRequest::reject`] answer it. Parts:
 //! `config.rs` (the zenoh configuration, the largest message, [`MemoryBound`]),
-//! `sessions.rs` (remote sessions and their requests in flight, [`Sessions`]).
+//! `sessions.rs` (remote sessions and their requests in flight, [`Sessions`]),
+//! `priority.rs` (zenoh's threads run at a lower CPU priority than the serving loop).
 //! Threads:
 //!
 //! * zenoh's own (network, rx, tx): the queryable's callback counts the query for its
@@ -24,11 +25,15 @@
 //! * `cliffd-zenoh-refuse`: sends the refusals (at most [`REFUSED_QUEUE`] wait; beyond,
 //!   a refused query gets no reply).
 //!
+//! zenoh's threads run at a lower CPU priority than the serving loop
+//! ([`ZenohSettings::nice`]).
+//!
 //! Safe defaults (see [`zenoh_config`]): peer mode, listening only on the given
 //! endpoints, multicast and gossip scouting off, received messages limited to what the
 //! largest allowed request needs.
 
 mod config;
+mod priority;
 mod sessions;
 
 use std::path::PathBuf;
@@ -51,6 +56,7 @@ pub use config::{
     MESSAGE_SLACK, MemoryBound, REFUSED_QUERY_BYTES, REFUSED_QUEUE, TRANSPORTS_PER_SESSION,
     default_max_message_bytes, max_request_bytes, max_response_bytes, max_rows, zenoh_config,
 };
+pub use priority::{MAX_NICE, nice_of};
 pub use sessions::{ANONYMOUS, Admitted, Refusal, Sessions, forget_bytes, session_of};
 
 use crate::settings::StartError;
@@ -82,7 +88,16 @@ pub struct ZenohSettings {
     /// the largest request the limits allow plus [`MESSAGE_SLACK`], whatever the
     /// configuration file says.
     pub max_message_bytes: Option<usize>,
+    /// How much lower than the daemon's own the CPU priority of zenoh's threads is: a
+    /// Linux nice increment from 0 (the same) to [`MAX_NICE`], default [`DEFAULT_NICE`].
+    /// The serving loop then gets the CPU before zenoh's receive threads, so a remote
+    /// client flooding the daemon with large messages slows itself down more than the
+    /// other clients (`priority.rs`).
+    pub nice: i32,
 }
+
+/// The default of [`ZenohSettings::nice`].
+pub const DEFAULT_NICE: i32 = 10;
 
 impl ZenohSettings {
     /// Settings for the iceoryx2 service `service` listening on `endpoints`.
@@ -95,6 +110,7 @@ impl ZenohSettings {
             max_sessions: d.max_remote_sessions,
             max_active: d.max_active_requests,
             max_message_bytes: None,
+            nice: DEFAULT_NICE,
         }
     }
 
@@ -226,14 +242,14 @@ impl ZenohFrontend {
             .map_err(bad)?;
         let key = zenoh::key_expr::KeyExpr::try_from(settings.key.clone())
             .map_err(|e| bad(format!("zenoh key expression '{}': {e}", settings.key)))?;
-        let session = zenoh::open(config)
-            .wait()
-            .map_err(|e| StartError::Zenoh(format!("cannot open the session: {e}")))?;
         let in_flight = settings.max_in_flight();
         // room for every admitted request: neither channel is ever full for them
         let (tx, rx) = sync_channel::<Admitted>(in_flight);
         let (replies, reply_rx) = sync_channel::<Outgoing>(in_flight);
         let (refusals, refusal_rx) = sync_channel::<(Query, Vec<u8>)>(REFUSED_QUEUE);
+        let counters = Arc::new(Counters::default());
+        let sessions = Arc::new(Sessions::new(settings.max_sessions, settings.max_active));
+        let (shared, callback_counters) = (sessions.clone(), counters.clone());
         let thread = |name: &str| std::thread::Builder::new().name(name.into());
         let failed = |e: std::io::Error| StartError::Zenoh(format!("cannot start a thread: {e}"));
         thread("cliffd-zenoh-reply")
@@ -251,36 +267,48 @@ impl ZenohFrontend {
                 }
             })
             .map_err(failed)?;
-        let counters = Arc::new(Counters::default());
-        let sessions = Arc::new(Sessions::new(settings.max_sessions, settings.max_active));
-        let (shared, callback_counters) = (sessions.clone(), counters.clone());
-        let queryable = session
-            .declare_queryable(key)
-            .callback(move |query: Query| match Admitted::new(query, &shared) {
-                Ok(admitted) => match tx.try_send(admitted) {
-                    Ok(()) => wake(),
-                    // (the channel has room for every admitted request: only at
-                    // shutdown; dropping it ends the query unanswered)
-                    Err(TrySendError::Full(_) | TrySendError::Disconnected(_)) => {}
-                },
-                Err((query, why)) => {
-                    let counter = match why {
-                        Refusal::Busy => &callback_counters.busy,
-                        Refusal::TooManySessions => &callback_counters.too_many_sessions,
-                    };
-                    counter.fetch_add(1, Ordering::Relaxed);
-                    let refusal = refusal(query, why, &shared);
-                    // never block zenoh's thread: without room the query is dropped
-                    // (its client sees no reply)
-                    if refusals.try_send(refusal).is_err() {
-                        callback_counters
-                            .dropped_replies
-                            .fetch_add(1, Ordering::Relaxed);
+        // zenoh's runtimes' threads start from a thread of lower priority (priority.rs)
+        // and inherit it. The two reply threads above keep the daemon's: they only hand
+        // encoded bytes to zenoh, and a refusal that waits too long is dropped.
+        let opened = priority::on_lowered_thread(settings.nice, move || {
+            let session = zenoh::open(config)
+                .wait()
+                .map_err(|e| StartError::Zenoh(format!("cannot open the session: {e}")))?;
+            let queryable = session
+                .declare_queryable(key)
+                .callback(move |query: Query| match Admitted::new(query, &shared) {
+                    Ok(admitted) => match tx.try_send(admitted) {
+                        Ok(()) => wake(),
+                        // (the channel has room for every admitted request: only at
+                        // shutdown; dropping it ends the query unanswered)
+                        Err(TrySendError::Full(_) | TrySendError::Disconnected(_)) => {}
+                    },
+                    Err((query, why)) => {
+                        let counter = match why {
+                            Refusal::Busy => &callback_counters.busy,
+                            Refusal::TooManySessions => &callback_counters.too_many_sessions,
+                        };
+                        counter.fetch_add(1, Ordering::Relaxed);
+                        let refusal = refusal(query, why, &shared);
+                        // never block zenoh's thread: without room the query is dropped
+                        // (its client sees no reply)
+                        if refusals.try_send(refusal).is_err() {
+                            callback_counters
+                                .dropped_replies
+                                .fetch_add(1, Ordering::Relaxed);
+                        }
                     }
-                }
-            })
-            .wait()
-            .map_err(|e| StartError::Zenoh(format!("cannot declare the queryable: {e}")))?;
+                })
+                .wait()
+                .map_err(|e| StartError::Zenoh(format!("cannot declare the queryable: {e}")))?;
+            Ok::<_, StartError>((session, queryable))
+        });
+        let (session, queryable) = opened.map_err(|e| {
+            StartError::Zenoh(format!(
+                "cannot start zenoh's threads at nice +{}: {e}",
+                settings.nice
+            ))
+        })??;
         let rows = max_rows(limits);
         let description = if settings.endpoints.is_empty() {
             format!("zenoh key '{}'", settings.key)
