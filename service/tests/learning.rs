@@ -717,10 +717,11 @@ fn default_params() -> cliff_client::ffi::CliffParams {
     }
 }
 
-/// ATC's training people walking their paths backwards, against the mall's flow: each
-/// track's rows reversed (times restamped to increase, headings turned around), at most
-/// 120 rows a track (so that whole tracks fill requests of at most 1020 rows).
-fn atc_backwards() -> Vec<Track> {
+/// Fabricated people on ATC's training paths, walking across the mall's flows: each
+/// row's heading turned a quarter turn to the left (the mall's corridors carry people
+/// both ways, so paths walked backwards would be real traffic), at most 120 rows a track
+/// (so that whole tracks fill requests of at most 1020 rows).
+fn atc_across() -> Vec<Track> {
     let files: Vec<_> = std::fs::read_dir(shared_data("atc/train"))
         .unwrap()
         .map(|e| e.unwrap().path())
@@ -731,17 +732,13 @@ fn atc_backwards() -> Vec<Track> {
         .filter(|t| t.rows.len() >= 4)
         .map(|t| {
             let rows = &t.rows[..t.rows.len().min(120)];
-            let (first, last) = (rows[0].t, rows[rows.len() - 1].t);
             Track {
                 id: t.id,
                 rows: rows
                     .iter()
-                    .rev()
                     .map(|r| cliff::tracks::Row {
-                        t: first + (last - r.t),
-                        position: r.position,
-                        speed: r.speed,
-                        angle: cliff::math::wrap_pi(r.angle + std::f64::consts::PI),
+                        angle: cliff::math::wrap_pi(r.angle + std::f64::consts::FRAC_PI_2),
+                        ..*r
                     })
                     .collect(),
             }
@@ -845,7 +842,7 @@ fn hostile_minute(tag: &str, move_per_min: &str, tracks: &[Track]) -> (f64, f64,
 
 #[test]
 fn a_hostile_client_at_its_full_budget_for_a_minute_barely_lowers_the_score_of_real_people() {
-    let tracks = atc_backwards();
+    let tracks = atc_across();
     // the default damping (0.01 per minute, here ten times faster: 0.1)
     let (before, after, taken, version) = hostile_minute("learn_hostile", "0.1", &tracks);
     // the client really sent a minute at its full budget, and the map learned from it
