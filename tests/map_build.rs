@@ -355,3 +355,134 @@ fn predictions_with_the_built_map_are_as_good_as_with_the_shipped_map() {
         shipped.fde
     );
 }
+
+/// The total-variation distance between two locations' mixtures by plain Monte Carlo
+/// (samples of `(p + q) / 2`, covariance eigenvalues floored at 1e-4 as the measure
+/// defines): independent of the library's quadrature.
+fn monte_carlo_tv(a: &[cliff::map::Component], b: &[cliff::map::Component], seed: u64) -> f64 {
+    use cliff::map::build::floor_eigenvalues;
+    // (weight, theta, rho, covariance, inverse, normalising constant)
+    type Part = (f64, f64, f64, [f64; 4], [f64; 3], f64);
+    let prep = |cs: &[cliff::map::Component]| -> Vec<Part> {
+        let total: f64 = cs.iter().map(|c| c.weight).sum();
+        cs.iter()
+            .map(|c| {
+                let v = floor_eigenvalues(c.cov, 1e-4);
+                let det = v[0] * v[3] - v[1] * v[1];
+                let inv = [v[3] / det, -v[1] / det, v[0] / det];
+                let w = c.weight / total;
+                (w, c.theta, c.rho, v, inv, w / (2.0 * PI * det.sqrt()))
+            })
+            .collect()
+    };
+    let dens = |parts: &[Part], t: f64, r: f64| -> f64 {
+        let mut sum = 0.0;
+        for &(_, mt, mr, _, inv, norm) in parts {
+            for k in [-1.0, 0.0, 1.0] {
+                let d = t - mt + 2.0 * PI * k;
+                let e = r - mr;
+                sum +=
+                    norm * (-0.5 * (inv[0] * d * d + 2.0 * inv[1] * d * e + inv[2] * e * e)).exp();
+            }
+        }
+        sum
+    };
+    let (p, q) = (prep(a), prep(b));
+    let mut rng = rand_xoshiro::Xoshiro256PlusPlus::seed_from_u64(seed);
+    let n = 20_000;
+    let mut sum = 0.0;
+    for _ in 0..n {
+        let u: f64 = rand::RngExt::random(&mut rng);
+        let (from, mut u) = if u < 0.5 {
+            (&p, 2.0 * u)
+        } else {
+            (&q, 2.0 * u - 1.0)
+        };
+        let &(_, mt, mr, v, _, _) = from
+            .iter()
+            .find(|c| {
+                u -= c.0;
+                u <= 0.0
+            })
+            .unwrap_or(from.last().unwrap());
+        let l11 = v[0].sqrt();
+        let l21 = v[1] / l11;
+        let l22 = (v[3] - l21 * l21).sqrt();
+        let z1: f64 = StandardNormal.sample(&mut rng);
+        let z2: f64 = StandardNormal.sample(&mut rng);
+        let t = wrap_2pi(mt + l11 * z1);
+        let r = mr + l21 * z1 + l22 * z2;
+        let (dp, dq) = (dens(&p, t, r), dens(&q, t, r));
+        sum += (dp - dq).abs() / (dp + dq);
+    }
+    sum / n as f64
+}
+
+#[test]
+fn damping_bounds_how_far_a_burst_against_the_flow_moves_each_location() {
+    // THÖR1's map (round 1), and a burst of fabricated people: round 2's people walking
+    // their paths backwards, against the room's flow
+    let base = CliffMap::load(data("thor1/cliffmap.csv")).unwrap();
+    let tracks = read_many(&[data("thor1/exp-1-run-2.csv")], Format::Thor).unwrap();
+    let burst: Vec<Observation> = observations_from_tracks(&tracks)
+        .into_iter()
+        .map(|o| Observation {
+            theta: wrap_2pi(o.theta + PI),
+            ..o
+        })
+        .collect();
+    assert!(burst.len() > 2000, "{}", burst.len());
+    let bound = 0.05;
+    let learn = |max_move: Option<f64>| {
+        let params = UpdateParams {
+            decay: 1.0,
+            max_move,
+            ..UpdateParams::default()
+        };
+        // the map weighs 200 samples at its busiest location: the burst is heavy
+        let mut online = OnlineMap::from_map(&base, 200.0, params).unwrap();
+        let report = online.update(&burst).unwrap();
+        (online.to_map().unwrap(), report)
+    };
+    // each location of the base map against the same place after the update
+    let moves = |after: &CliffMap| -> Vec<f64> {
+        base.locations()
+            .iter()
+            .enumerate()
+            .map(|(i, l)| {
+                let j = after
+                    .nearest(l.position, 1e-6)
+                    .expect("every location stays");
+                monte_carlo_tv(&l.components, &after.locations()[j].components, i as u64)
+            })
+            .collect()
+    };
+    let (free, free_report) = learn(None);
+    let (damped, report) = learn(Some(bound));
+    let (free_moves, damped_moves) = (moves(&free), moves(&damped));
+    let largest = |m: &[f64]| m.iter().copied().fold(0.0, f64::max);
+    let far = |m: &[f64]| m.iter().filter(|&&v| v > bound).count();
+    println!(
+        "undamped: {} locations moved beyond {bound}, largest {:.3}; damped ({} locations): largest {:.3}",
+        far(&free_moves),
+        largest(&free_moves),
+        report.damped,
+        largest(&damped_moves)
+    );
+    assert_eq!(free_report.damped, 0);
+    // the burst really moves the map: many locations far beyond the bound without damping
+    assert!(
+        far(&free_moves) >= 20 && largest(&free_moves) > 0.3,
+        "{free_moves:?}"
+    );
+    // damped, no location moves beyond the bound (with Monte Carlo's error, about 0.005)
+    assert!(largest(&damped_moves) <= bound + 0.01, "{damped_moves:?}");
+    // and the damped ones move up to the bound, not to nothing
+    assert!(report.damped >= far(&free_moves) / 2, "{report:?}");
+    let near_bound = damped_moves.iter().filter(|&&v| v > 0.8 * bound).count();
+    assert!(
+        near_bound >= report.damped / 2,
+        "{near_bound} of {}",
+        report.damped
+    );
+}

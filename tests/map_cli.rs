@@ -334,3 +334,120 @@ fn a_map_of_few_long_tracks_keeps_a_speed_prior_from_windows_and_info_shows_it()
     let info = ok(&cliff(&["map", "info", &none]));
     assert!(info.contains("speed prior         none"), "{info}");
 }
+
+#[test]
+fn map_diff_counts_what_an_update_of_real_data_changed() {
+    use cliff::map::CliffMap;
+    let dir = tmp();
+    let base = data("thor1/cliffmap.csv");
+    let new = p(&dir, "updated.cliff");
+    // THÖR1's round-1 map updated with round 2's people, weighed as 100 samples
+    ok(&cliff(&[
+        "map",
+        "update",
+        "--map",
+        &base,
+        "--count-scale",
+        "100",
+        "--decay",
+        "1",
+        "--tracks",
+        &data("thor1/exp-1-run-2.csv"),
+        "--format",
+        "thor",
+        "--out",
+        &new,
+    ]));
+    let j = json(&ok(&cliff(&["map", "diff", &base, &new, "--json"])));
+    // the counts again, by comparing every location with every other
+    let (old, upd) = (
+        CliffMap::load(&base).unwrap(),
+        CliffMap::load(&new).unwrap(),
+    );
+    let tol = 1e-3 * old.grid().step();
+    let found = |l: &cliff::map::Location, m: &CliffMap| {
+        m.locations()
+            .iter()
+            .any(|o| o.position.distance(l.position) < tol)
+    };
+    let added = upd.locations().iter().filter(|l| !found(l, &old)).count();
+    let removed = old.locations().iter().filter(|l| !found(l, &upd)).count();
+    let common = upd.locations().len() - added;
+    let len = |k: &str| j[k].as_array().unwrap().len();
+    assert_eq!(
+        (len("added"), len("removed"), len("common")),
+        (added, removed, common)
+    );
+    assert!(added > 0, "round 2 reaches places round 1 did not");
+    // a location whose mixture is unchanged (weights renormalised) did not move; one that
+    // moved more than 0.01 changed
+    let normalised = |l: &cliff::map::Location| {
+        let t: f64 = l.components.iter().map(|c| c.weight).sum();
+        l.components
+            .iter()
+            .map(|c| [c.theta, c.rho, c.cov[0], c.cov[1], c.cov[3], c.weight / t])
+            .collect::<Vec<_>>()
+    };
+    let (mut unchanged, mut moved) = (0, 0);
+    for c in j["common"].as_array().unwrap() {
+        let (i, k) = (
+            c["old"].as_u64().unwrap() as usize,
+            c["new"].as_u64().unwrap() as usize,
+        );
+        let (a, b) = (&old.locations()[i], &upd.locations()[k]);
+        let m = c["moved"].as_f64().unwrap();
+        assert_eq!(
+            c["components"][0].as_u64().unwrap() as usize,
+            a.components.len()
+        );
+        assert_eq!(
+            c["components"][1].as_u64().unwrap() as usize,
+            b.components.len()
+        );
+        let same = a.components.len() == b.components.len()
+            && normalised(a)
+                .iter()
+                .zip(normalised(b))
+                .all(|(x, y)| x.iter().zip(y).all(|(u, v)| (u - v).abs() < 1e-9));
+        if same {
+            unchanged += 1;
+            assert!(m < 1e-6, "unchanged location moved {m}");
+        }
+        if m > 0.01 {
+            moved += 1;
+            assert!(!same);
+        }
+    }
+    assert!(
+        unchanged > 0 && moved > 20,
+        "{unchanged} unchanged, {moved} moved"
+    );
+    // the text says the same
+    let text = ok(&cliff(&["map", "diff", &base, &new, "--top", "3"]));
+    assert!(
+        text.contains(&format!(
+            "locations           {added} added, {removed} removed, {common} in both"
+        )),
+        "{text}"
+    );
+    assert!(
+        text.contains(&format!(
+            "moved               {moved} of {common} by more than 0.01"
+        )),
+        "{text}"
+    );
+    // and the picture
+    let png = p(&dir, "diff.png");
+    ok(&cliff(&[
+        "map", "diff", &base, &new, "--png", &png, "--width", "600",
+    ]));
+    let img = image::open(&png).expect("a PNG").to_rgb8();
+    assert_eq!(img.width(), 600);
+    // some squares of moved locations are red
+    let red = img
+        .pixels()
+        .filter(|p| p[0] > 200 && p[1] < 120 && p[2] < 120)
+        .count();
+    assert!(red > 100, "{red} red pixels");
+    assert!(err(&cliff(&["map", "diff", &base, "nowhere.csv"])).contains("nowhere.csv"));
+}

@@ -283,16 +283,16 @@ predict_fn! {
             let params = args.params()?;
             let mut request = args.request(map)?;
             add_histories(py, histories, &mut request)?;
-            let (shape, positions, lens, scores) = py
+            let (shape, positions, lens, scores, version) = py
                 .detach(|| {
                     let mut client = self.inner.lock().unwrap_or_else(|p| p.into_inner());
                     let p = client.predict(&request)?;
                     let positions: Vec<f32> = p.positions().as_flattened().to_vec();
                     let scores = p.has_scores().then(|| p.scores().to_vec());
-                    Ok((p.shape(), positions, p.lens().to_vec(), scores))
+                    Ok((p.shape(), positions, p.lens().to_vec(), scores, p.map_version()))
                 })
                 .map_err(|e| client_err(py, e))?;
-            Prediction::from_flat(py, shape, positions, &lens, scores, params.dt)
+            Prediction::from_flat(py, shape, positions, &lens, scores, params.dt, version)
         }
     }
 }

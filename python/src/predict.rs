@@ -194,6 +194,7 @@ pub fn predict_local(
         &lens,
         scored.then_some(scores),
         params.dt,
+        0,
     )
 }
 

@@ -19,6 +19,9 @@ use pyo3::prelude::*;
 ///         ``scores=True`` or used ``method="improved"`` (which scores its samples),
 ///         else None: the log-likelihood of each sample under the map (higher is more
 ///         likely; compare the samples of one call).
+///     map_version: the version of the map that answered: a learning daemon's learned
+///         version (``cliffd --learn``), 0 for the map as loaded and for predictions in
+///         this process.
 #[pyclass(module = "cliff_lhmp", frozen)]
 pub struct Prediction {
     /// float32 array (agents, k, steps, 2): the sampled positions, NaN after each
@@ -35,12 +38,17 @@ pub struct Prediction {
     /// not ask for scores.
     #[pyo3(get)]
     scores: Option<Py<PyArray2<f32>>>,
+    /// The version of the map that answered (0: the map as loaded).
+    #[pyo3(get)]
+    map_version: u32,
     shape: (usize, usize, usize),
 }
 
 impl Prediction {
     /// A prediction from flat buffers (positions sample-major, one length per sample,
-    /// one score per sample when `scores` is given).
+    /// one score per sample when `scores` is given), answered by map version
+    /// `map_version`.
+    #[allow(clippy::too_many_arguments)]
     pub fn from_flat(
         py: Python<'_>,
         shape: (usize, usize, usize),
@@ -48,6 +56,7 @@ impl Prediction {
         lens: &[u32],
         scores: Option<Vec<f32>>,
         dt: f64,
+        map_version: u32,
     ) -> PyResult<Self> {
         let (a, k, s) = shape;
         let internal = |e: numpy::ndarray::ShapeError| {
@@ -70,6 +79,7 @@ impl Prediction {
             lengths: l.into_pyarray(py).unbind(),
             dt,
             scores,
+            map_version,
             shape,
         })
     }

@@ -271,6 +271,11 @@ def test_observe_counts_each_row_once_and_predictions_name_the_learned_version(t
             time.sleep(0.1)
             version = client.observe("thor1", 20_000, WALK)["map_version"]
         assert version >= 1
+        # predictions name the version that answered; in-process ones the map as loaded
+        near = people[0][:3, :3]
+        assert client.predict("thor1", [near], k=4).map_version >= version
+        local = cliff_lhmp.predict(cliff_lhmp.Map.load(THOR1_MAP), [near], k=4)
+        assert local.map_version == 0
     finally:
         d.stop()
         remove_namespace(prefix)

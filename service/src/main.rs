@@ -187,6 +187,12 @@ struct Args {
     #[arg(long, value_name = "NATS", default_value_t = Guards::default().max_score_drop)]
     learn_max_score_drop: f64,
 
+    /// Guard (damping): a location's mixture moves at most this far per minute, as a
+    /// total-variation distance (an update: this times the minutes since the previous
+    /// one, counted up to --learn-every-s); inf: no damping.
+    #[arg(long, value_name = "TV", default_value_t = Guards::default().max_move_per_min)]
+    learn_move_per_min: f64,
+
     /// Guard: rows held out of learning to judge new versions (0: no check).
     #[arg(long, value_name = "ROWS", default_value_t = Guards::default().held_rows)]
     learn_held_rows: usize,
@@ -327,6 +333,7 @@ fn run() -> Result<ExitCode, String> {
                 track_rows: args.learn_track_rows,
                 max_score_drop: args.learn_max_score_drop,
                 held_rows: args.learn_held_rows,
+                max_move_per_min: args.learn_move_per_min,
                 ..Guards::default()
             },
             ..LearnSettings::default()

@@ -235,6 +235,9 @@ fn learned_versions_are_swapped_in_and_each_response_names_its_version() {
             "100000",
             "--learn-every-s",
             "1",
+            // no damping: this checks what one version learns from real people
+            "--learn-move-per-min",
+            "inf",
         ],
     );
     assert!(
@@ -712,4 +715,171 @@ fn default_params() -> cliff_client::ffi::CliffParams {
         cliff_client::ffi::cliff_params_default(p.as_mut_ptr());
         p.assume_init()
     }
+}
+
+/// Fabricated people on ATC's training paths, walking across the mall's flows: each
+/// row's heading turned a quarter turn to the left (the mall's corridors carry people
+/// both ways, so paths walked backwards would be real traffic), at most 120 rows a track
+/// (so that whole tracks fill requests of at most 1020 rows).
+fn atc_across() -> Vec<Track> {
+    let files: Vec<_> = std::fs::read_dir(shared_data("atc/train"))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .collect();
+    let tracks = cliff::tracks::read_many(&files, Format::Atc).expect("atc/train");
+    tracks
+        .into_iter()
+        .filter(|t| t.rows.len() >= 4)
+        .map(|t| {
+            let rows = &t.rows[..t.rows.len().min(120)];
+            Track {
+                id: t.id,
+                rows: rows
+                    .iter()
+                    .map(|r| cliff::tracks::Row {
+                        angle: cliff::math::wrap_pi(r.angle + std::f64::consts::FRAC_PI_2),
+                        ..*r
+                    })
+                    .collect(),
+            }
+        })
+        .collect()
+}
+
+/// Send whole `tracks` (each ended) as fast as the daemon's budget lets through, for
+/// `seconds`; the rows taken.
+fn flood(client: &mut Client, map: &str, tracks: &[Track], seconds: f64) -> u64 {
+    let end = Instant::now() + Duration::from_secs_f64(seconds);
+    let mut request = ObserveRequest::new(map).unwrap();
+    let mut taken = 0u64;
+    let mut next = tracks.iter().enumerate().cycle();
+    while Instant::now() < end {
+        request.clear();
+        while request.rows().len() < 900 {
+            let (id, t) = next.next().unwrap();
+            request.add_track_rows(id as u32, &t.rows);
+            request.end_track();
+        }
+        // over budget: wait for the bucket to refill, then the same request again
+        loop {
+            match client.observe(&request) {
+                Ok(r) => {
+                    taken += r.accepted as u64;
+                    break;
+                }
+                Err(Error::Rejected(rej)) if rej.status == Status::OverBudget => {
+                    if Instant::now() >= end {
+                        return taken;
+                    }
+                    std::thread::sleep(Duration::from_millis(2));
+                }
+                Err(e) => panic!("observe: {e}"),
+            }
+        }
+    }
+    taken
+}
+
+/// One hostile minute (scaled: see the test) against a daemon learning ATC's map, and the
+/// map's mean log-likelihood on atc/dev's real people before and after, scored by the
+/// library on the snapshot written; with the damping of `move_per_min` ("inf": none).
+/// The scores are (mean, median) log-likelihoods.
+fn hostile_minute(
+    tag: &str,
+    move_per_min: &str,
+    tracks: &[Track],
+) -> ((f64, f64), (f64, f64), u64, u32) {
+    let ns = Namespace::new(tag);
+    let dir = tempfile::tempdir().unwrap();
+    let dir_arg = dir.path().display().to_string();
+    let atc = shared_data("atc/cliffmap-20121024.csv");
+    // Time runs ten times faster than with the defaults: a second stands for ten, so the
+    // budget is ten times the default 2000 rows/s and the intervals a tenth of theirs;
+    // --learn-every-rows stays 20000, so the minute's 120,000 rows make the same six
+    // versions as at the defaults' pace.
+    let mut daemon = Daemon::start_tagged(
+        &ns,
+        &[
+            "--map",
+            &format!("atc={}", atc.display()),
+            "--learn",
+            "atc",
+            "--learn-dir",
+            &dir_arg,
+            "--observe-rate",
+            "20000",
+            "--learn-every-s",
+            "3",
+            "--track-timeout-s",
+            "0.5",
+            "--snapshot-every-s",
+            "6",
+            "--learn-move-per-min",
+            move_per_min,
+        ],
+        tag,
+    );
+    let mut c = ns.connect(WaitMode::Hybrid);
+    let taken = flood(&mut c, "atc", tracks, 6.0);
+    daemon.signal(SIGINT);
+    assert!(
+        daemon
+            .wait_exit(Duration::from_secs(60))
+            .is_some_and(|s| s.success()),
+        "{}",
+        daemon.log_text()
+    );
+    let (version, learned) = newest_snapshot(dir.path(), "atc").expect("a snapshot");
+    let dev: Vec<_> = std::fs::read_dir(shared_data("atc/dev"))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .collect();
+    let people = observations_from_tracks(&cliff::tracks::read_many(&dev, Format::Atc).unwrap());
+    let base = CliffMap::load(&atc).unwrap();
+    let p = ScoreParams::default();
+    let (b, a) = (
+        score(&base, &people, &p).unwrap(),
+        score(&learned, &people, &p).unwrap(),
+    );
+    let (before, after) = (b.mean_log_likelihood, a.mean_log_likelihood);
+    println!(
+        "{tag}: {taken} rows taken, version {version}, atc/dev mean log-likelihood {before:.4} -> {after:.4}, median {:.4} -> {:.4}, below -10 {:.2} % -> {:.2} %",
+        b.median_log_likelihood,
+        a.median_log_likelihood,
+        100.0 * b.share_below,
+        100.0 * a.share_below
+    );
+    (
+        (before, b.median_log_likelihood),
+        (after, a.median_log_likelihood),
+        taken,
+        version,
+    )
+}
+
+#[test]
+fn a_hostile_client_at_its_full_budget_for_a_minute_barely_lowers_the_score_of_real_people() {
+    let tracks = atc_across();
+    // the default damping (0.01 per minute, here ten times faster: 0.1)
+    let (before, after, taken, version) = hostile_minute("learn_hostile", "0.1", &tracks);
+    // the client really sent a minute at its full budget, and the map learned from it
+    assert!(taken >= 100_000, "{taken} rows taken");
+    assert!(version >= 4, "version {version}");
+    // the mean, and the median (the mean rises where a little fabricated weight lifts
+    // the worst-explained observations)
+    for (what, b, a) in [("mean", before.0, after.0), ("median", before.1, after.1)] {
+        let drop = (b - a) / b.abs();
+        assert!(
+            drop <= 0.02,
+            "{what} log-likelihood on atc/dev {b:.4} before, {a:.4} after: {:.1} % lower",
+            100.0 * drop
+        );
+    }
+    // the same minute without damping lowers both far more: the attack is real
+    let (before, undamped, _, _) = hostile_minute("learn_hostile_free", "inf", &tracks);
+    assert!(
+        (before.0 - undamped.0) / before.0.abs() > 0.05
+            && (before.1 - undamped.1) / before.1.abs() > 0.05,
+        "undamped: {before:?} -> {undamped:?}"
+    );
 }

@@ -32,6 +32,8 @@
 //! | `sampling_tables` | the tables the draws read, built at construction |
 //! | `sampling` | the draws: [`DirectionSampler`], follow, velocity |
 //! | `mixture` | merging and capping a location's components |
+//! | [`movement`] | how far a location's mixture moved (total variation) |
+//! | [`diff`] | what changed between two maps |
 //! | `log_density`, `density` | the map's density of a step (scores) |
 //! | `grid`, `neighbours`, `tables` | the grid index, neighbour tables and their cache |
 //! | `csv`, `snapshot` | the published CSV format and our snapshot format |
@@ -46,6 +48,7 @@ mod cliff_map;
 mod csv;
 mod demo;
 mod density;
+pub mod diff;
 mod error;
 mod file;
 mod grid;
@@ -55,6 +58,7 @@ mod location;
 mod log_density;
 mod lookup;
 mod mixture;
+pub mod movement;
 mod neighbours;
 mod sampling;
 mod sampling_tables;

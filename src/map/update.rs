@@ -25,6 +25,14 @@
 //! Nodes without a location get one when the batch brings them enough samples; nodes
 //! without new data only decay. Observation ratios are `W / max W`.
 //!
+//! **Damping** ([`UpdateParams::max_move`]): an update that would move a location's
+//! mixture further than the bound, measured as the total-variation distance between
+//! the mixtures before and after ([`movement`](super::movement)), is damped: the new
+//! mixture becomes the blend `(1 - a) old + a new` (the components of both, weights
+//! scaled, then merged and capped as above) with the largest `a` found that keeps the
+//! move within the bound, and the node's counts grow by `a n` instead of `n`. New
+//! locations have no mixture to move and are not damped.
+//!
 //! ```
 //! use cliff::map::build::{BuildParams, Observation};
 //! use cliff::map::update::{OnlineMap, UpdateParams};
@@ -55,6 +63,7 @@ use super::build::{
     check_observations, eig_sym, fit_mixture, floor_eigenvalues, split,
 };
 use super::mixture::{cap_components, merge_near_duplicates};
+use super::movement::total_variation;
 use super::{CliffMap, Component, Location, MapError};
 use crate::math::{wrap_2pi, wrap_pi};
 
@@ -79,6 +88,10 @@ pub struct UpdateParams {
     pub cov_floor: f64,
     /// Fitting of fresh mixtures.
     pub fit: FitParams,
+    /// Damping: the largest move of a location's mixture in one update, as a
+    /// total-variation distance in `(0, 1]` ([`movement`](super::movement)); `None`: no
+    /// damping.
+    pub max_move: Option<f64>,
 }
 
 impl Default for UpdateParams {
@@ -92,6 +105,7 @@ impl Default for UpdateParams {
             min_weight: 1e-3,
             cov_floor: 1e-8,
             fit: FitParams::default(),
+            max_move: None,
         }
     }
 }
@@ -119,6 +133,11 @@ impl UpdateParams {
         if self.max_components == 0 {
             return bad("max_components must be at least 1".into());
         }
+        if let Some(m) = self.max_move
+            && !(m > 0.0 && m <= 1.0)
+        {
+            return bad(format!("largest move {m} must be in (0, 1]"));
+        }
         if !(self.cov_floor > 0.0 && self.cov_floor.is_finite()) {
             return bad(format!(
                 "covariance floor {} must be positive",
@@ -144,6 +163,8 @@ pub struct UpdateReport {
     pub merged: usize,
     /// Components pruned for a weight below the floor.
     pub pruned: usize,
+    /// Locations whose update was damped ([`UpdateParams::max_move`]).
+    pub damped: usize,
 }
 
 /// Per-node state: effective counts and the normalised mixture.
@@ -171,6 +192,8 @@ struct NodeChange {
     added: usize,
     merged: usize,
     pruned: usize,
+    /// The share of the update kept (1: not damped).
+    kept: f64,
 }
 
 impl OnlineMap {
@@ -301,6 +324,17 @@ impl OnlineMap {
         Ok(())
     }
 
+    /// Change the damping bound of the next updates ([`UpdateParams::max_move`]).
+    pub fn set_max_move(&mut self, max_move: Option<f64>) -> Result<(), BuildError> {
+        let params = UpdateParams {
+            max_move,
+            ..self.params
+        };
+        params.check()?;
+        self.params = params;
+        Ok(())
+    }
+
     /// Number of locations.
     pub fn len(&self) -> usize {
         self.nodes.len()
@@ -329,12 +363,20 @@ impl OnlineMap {
                     Some(state) => {
                         let mut s = state.clone();
                         let ch = if x.is_empty() {
-                            NodeChange::default()
+                            NodeChange {
+                                kept: 1.0,
+                                ..NodeChange::default()
+                            }
                         } else {
-                            update_node(&mut s, x, &p)
+                            let mut ch = update_node(&mut s, x, &p);
+                            ch.kept = match p.max_move {
+                                Some(bound) => damp(&state.comps, &mut s.comps, bound, &p),
+                                None => 1.0,
+                            };
+                            ch
                         };
-                        s.w += x.len() as f64;
-                        s.w_all += total;
+                        s.w += ch.kept * x.len() as f64;
+                        s.w_all += ch.kept * total;
                         Some((s, ch, false))
                     }
                     None => {
@@ -367,6 +409,9 @@ impl OnlineMap {
             report.added += ch.added;
             report.merged += ch.merged;
             report.pruned += ch.pruned;
+            if !created && ch.kept < 1.0 {
+                report.damped += 1;
+            }
             self.nodes.insert(split.keys[i], s);
         }
         Ok(report)
@@ -516,6 +561,42 @@ fn update_node(s: &mut NodeState, x: &[[f64; 2]], p: &UpdateParams) -> NodeChang
     }
     tidy(&mut s.comps, p, &mut ch);
     ch
+}
+
+/// Damp a node's update (`old` its mixture before, `new` after) so that it moves at most
+/// `bound` (total variation): `new` becomes the tidied blend `(1 - a) old + a new` with
+/// `a` shrunk until the move is within the bound (after six tries, the old mixture).
+/// Gives back `a` (1: not damped).
+fn damp(old: &[Component], new: &mut Vec<Component>, bound: f64, p: &UpdateParams) -> f64 {
+    let moved = total_variation(old, new);
+    if moved <= bound {
+        return 1.0;
+    }
+    let mut a = bound / moved;
+    for _ in 0..6 {
+        let mut blend: Vec<Component> = old
+            .iter()
+            .map(|c| Component {
+                weight: c.weight * (1.0 - a),
+                ..*c
+            })
+            .chain(new.iter().map(|c| Component {
+                weight: c.weight * a,
+                ..*c
+            }))
+            .collect();
+        normalise(&mut blend);
+        tidy(&mut blend, p, &mut NodeChange::default());
+        let moved = total_variation(old, &blend);
+        if moved <= bound {
+            *new = blend;
+            return a;
+        }
+        // merging moved it further than the blend alone: shrink in proportion, with room
+        a *= 0.9 * bound / moved;
+    }
+    *new = old.to_vec();
+    0.0
 }
 
 /// Merge near-duplicates, prune tiny weights, cap the count (the lightest component is

@@ -85,7 +85,7 @@ impl MapStyle {
         }
     }
 
-    fn check(&self) -> Result<(), PlotError> {
+    pub(crate) fn check(&self) -> Result<(), PlotError> {
         let bad = |m: String| Err(PlotError::Invalid(m));
         if self.width < 200 {
             return bad(format!(

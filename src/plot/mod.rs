@@ -35,6 +35,7 @@
 //! ```
 
 mod curves;
+mod diff;
 mod frame;
 mod map;
 mod predict;
@@ -46,6 +47,7 @@ pub use curves::{
     CurveRun, CurvesLayout, CurvesStyle, SummaryRow, curves_layout, parse_per_person_spread,
     parse_summary, plot_curves, plot_curves_to, read_per_person_spread, read_summary,
 };
+pub use diff::{ADDED, MOVED, plot_diff, plot_diff_to};
 pub use frame::{Extent, Frame, PixelRect};
 pub(crate) use frame::{clip_polyline, clip_segment};
 pub use map::{MapStyle, plot_map, plot_map_to};

@@ -63,6 +63,8 @@ struct Learned {
     held: guard::HeldSample,
     /// Rows learned since the start map.
     rows: u64,
+    /// When the map last moved (a version published), or the learner started.
+    moved: Instant,
     saved_version: u32,
 }
 
@@ -74,6 +76,24 @@ pub(crate) struct Learner {
     shared: Arc<Shared>,
     pool: rayon::ThreadPool,
     next_snapshot: Instant,
+}
+
+/// The online update's options from the daemon's settings (the damping bound is set per
+/// update: [`move_bound`]).
+fn update_params(settings: &LearnSettings) -> UpdateParams {
+    UpdateParams {
+        decay: settings.decay,
+        ..UpdateParams::default()
+    }
+}
+
+/// The damping bound of an update `since` the previous one: the move per minute times
+/// the minutes, counted up to the learning interval (an idle map does not save moves
+/// up); `None` when it reaches 1, which bounds nothing.
+fn move_bound(settings: &LearnSettings, since: Duration) -> Option<f64> {
+    let minutes = since.min(settings.every).as_secs_f64() / 60.0;
+    let bound = settings.guards.max_move_per_min * minutes;
+    (bound < 1.0).then_some(bound.max(1e-9))
 }
 
 /// Where a learned map starts: the map and its version, the rows learned so far and the
@@ -99,10 +119,7 @@ impl Learner {
             .thread_name(|_| "cliffd-learn".into())
             .build()
             .map_err(|e| format!("cannot start the learner's thread pool: {e}"))?;
-        let params = UpdateParams {
-            decay: settings.decay,
-            ..UpdateParams::default()
-        };
+        let params = update_params(&settings);
         let mut maps = Vec::new();
         for s in starts {
             let scale = s.count_scale.or(settings.count_scale);
@@ -123,6 +140,7 @@ impl Learner {
                 oldest: None,
                 held: guard::HeldSample::new(settings.guards.held_rows, settings.guards.held_every),
                 rows: s.rows,
+                moved: Instant::now(),
                 saved_version: s.version,
             });
         }
@@ -193,10 +211,7 @@ impl Learner {
     /// publish it.
     fn learn(&mut self, i: usize) {
         let guards = self.settings.guards;
-        let params = UpdateParams {
-            decay: self.settings.decay,
-            ..UpdateParams::default()
-        };
+        let params = update_params(&self.settings);
         let fixed_scale = self.settings.count_scale;
         let m = &mut self.maps[i];
         let mut by_client: HashMap<ClientKey, Vec<MapObservation>> = HashMap::new();
@@ -207,6 +222,7 @@ impl Learner {
                 .extend(guard::thin(&rows, guards.track_rows));
         }
         let batch = guard::share_capped(by_client, guards.client_share, self.settings.every_rows);
+        let bound = move_bound(&self.settings, m.moved.elapsed());
         m.waiting_rows = 0;
         m.oldest = None;
         if batch.is_empty() {
@@ -224,8 +240,15 @@ impl Learner {
                 m.online = Some(online);
             }
             let online = m.online.as_mut().expect("set above");
+            online.set_max_move(bound).map_err(|e| e.to_string())?;
             let before = online.clone();
-            online.update(&batch).map_err(|e| e.to_string())?;
+            let report = online.update(&batch).map_err(|e| e.to_string())?;
+            if report.damped > 0 {
+                info!(
+                    map = %m.name, locations = report.damped, bound = bound.unwrap_or(1.0),
+                    "update damped (--learn-move-per-min)"
+                );
+            }
             let candidate = online.to_map().map_err(|e| e.to_string())?;
             if let Some(why) = m
                 .held
@@ -252,6 +275,7 @@ impl Learner {
         self.policy
             .prepare(&m.name, &cliff::map::MapSet::single_arc(Arc::clone(&map)));
         m.version += 1;
+        m.moved = Instant::now();
         m.rows += batch.len() as u64;
         m.current = Arc::clone(&map);
         let c = &self.shared.counters;

@@ -173,6 +173,11 @@ pub struct Guards {
     /// A new version whose mean log-likelihood on the held rows is this much (nats)
     /// below the current version's is not served.
     pub max_score_drop: f64,
+    /// Damping: a location's mixture moves at most this far per minute (total-variation
+    /// distance, [`cliff::map::movement`]): an update may move it this much times the
+    /// minutes since the previous update, counted up to `every`; infinity turns
+    /// damping off.
+    pub max_move_per_min: f64,
 }
 
 impl Default for Guards {
@@ -183,6 +188,7 @@ impl Default for Guards {
             held_rows: 4096,
             held_every: 10,
             max_score_drop: 0.05,
+            max_move_per_min: 0.01,
         }
     }
 }
@@ -197,6 +203,12 @@ impl Guards {
             return Err(format!(
                 "client share {} must be in (0, 1]",
                 self.client_share
+            ));
+        }
+        if self.max_move_per_min.is_nan() || self.max_move_per_min <= 0.0 {
+            return Err(format!(
+                "largest move per minute {} must be positive",
+                self.max_move_per_min
             ));
         }
         if !(self.max_score_drop.is_finite() && self.max_score_drop >= 0.0) {

@@ -7,6 +7,7 @@ use crate::demo::DemoArgs;
 use crate::eval::EvalArgs;
 use crate::map::build::BuildArgs;
 use crate::map::convert::ConvertArgs;
+use crate::map::diff::DiffArgs;
 use crate::map::info::InfoArgs;
 use crate::map::score::ScoreArgs;
 use crate::map::update::UpdateArgs;
@@ -97,6 +98,13 @@ pub enum MapCommand {
     /// Example: cliff map update --map hour9.csv --count-scale 1523 --tracks
     /// ../shared/data/atc/train/atc-1024-10_train.csv --format atc --out hour10.csv
     Update(UpdateArgs),
+    /// Show what changed between two maps of one place: locations added and removed,
+    /// how far each location's mixture moved (total-variation distance), components
+    /// and the heaviest component before and after; --png draws it.
+    ///
+    /// Example: cliff map diff ../shared/data/thor1/cliffmap.csv learned/thor1.v00000003.cliff
+    /// --png diff.png
+    Diff(DiffArgs),
 }
 
 /// Plot subcommands.

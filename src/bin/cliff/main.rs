@@ -57,6 +57,7 @@ fn main() -> std::process::ExitCode {
         Command::Map(MapCommand::Build(a)) => map::build::run(a),
         Command::Map(MapCommand::Score(a)) => map::score::run(a),
         Command::Map(MapCommand::Update(a)) => map::update::run(a),
+        Command::Map(MapCommand::Diff(a)) => map::diff::run(a),
         Command::Eval(a) => eval::run(a),
         Command::Predict(a) => predict::run(a),
         Command::Plot(PlotCommand::Map(a)) => plot::map::run(a),

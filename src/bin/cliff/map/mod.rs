@@ -2,6 +2,7 @@
 
 pub mod build;
 pub mod convert;
+pub mod diff;
 pub mod info;
 pub mod score;
 pub mod update;

@@ -38,6 +38,11 @@ pub struct UpdateArgs {
     /// Largest number of components per location.
     #[arg(long, default_value_t = 10)]
     pub max_components: usize,
+    /// Damping: the largest move of a location's mixture, as a total-variation
+    /// distance in (0, 1] (docs/learning.md); an update moving a location further is
+    /// blended with the mixture before it. Default: no damping.
+    #[arg(long, value_name = "TV")]
+    pub max_move: Option<f64>,
 }
 
 /// Run `cliff map update`.
@@ -48,6 +53,7 @@ pub fn run(a: UpdateArgs) -> Result<()> {
         decay: a.decay,
         radius: a.radius,
         max_components: a.max_components,
+        max_move: a.max_move,
         ..UpdateParams::default()
     };
     let mut online = OnlineMap::from_map(&map, a.count_scale.unwrap_or(1.0), params)?;
@@ -80,6 +86,9 @@ pub fn run(a: UpdateArgs) -> Result<()> {
         r.pruned,
         out.info().components
     );
+    if a.max_move.is_some() {
+        println!("damped              {} locations", r.damped);
+    }
     println!(
         "count scale out     {:.1} (pass --count-scale {:.1} to the next update)",
         online.count_scale(),
