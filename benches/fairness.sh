@@ -8,7 +8,7 @@
 #   cargo build --release -p cliff-service -p cliff-client
 #   benches/fairness.sh
 #   BIG_METHOD=improved benches/fairness.sh   # the largest improved requests instead:
-#                                             # 3 agents (cost factor 10)
+#                                             # 3 agents (cost factor 9)
 #
 # Own iceoryx2 namespace (prefix `cliff_fair_`). Needs both cores: close other work.
 set -euo pipefail

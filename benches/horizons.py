@@ -20,7 +20,7 @@ horizon. Prints Markdown tables:
    velocity; the reach (share of people a prediction reaches) of improved and the paper;
 2. the ablation: the same figures for the preset less each of its parts.
 
-    python3 benches/horizons.py [--cliff target/release/cliff] [--seeds 10] [--out DIR]
+    python3 benches/horizons.py [--cliff target/release/cliff] [--seeds 10] [--out DIR] [--no-ablation]
 
 About five minutes on two cores (the ATC map build and the ATC runs take most).
 The summaries it writes (DIR/<data>/summary.csv) draw with `cliff plot curves`.
@@ -41,7 +41,7 @@ DATA = os.path.join(ROOT, "..", "shared", "data")
 PARTS = {
     "beta": ["--beta", "2"],
     "follow": ["--follow", "4"],
-    "candidates": ["--candidates", "5"],
+    "candidates": ["--candidates", "5", "--prune"],
     "speed prior": ["--speed-prior"],
     "trust": ["--trust", "0.5"],
     "blend": ["--blend", "3"],
@@ -146,7 +146,9 @@ def main():
     ap.add_argument("--cliff", default=os.path.join(ROOT, "target", "release", "cliff"))
     ap.add_argument("--seeds", default="10")
     ap.add_argument("--out", default=os.path.join(ROOT, "target", "horizons"))
+    ap.add_argument("--no-ablation", action="store_true", help="the first table only (about a fifth of the time)")
     a = ap.parse_args()
+    ablation = ABLATION[:1] if a.no_ablation else ABLATION
     os.makedirs(a.out, exist_ok=True)
     maps = {"magni": os.path.join(a.out, "magni-first8.cliff"), "atc": os.path.join(a.out, "atc-train.cliff")}
     if not os.path.exists(maps["magni"]):
@@ -161,7 +163,7 @@ def main():
         run([a.cliff, "eval", *eval_args(data, maps), "--seeds", a.seeds, "--methods", "cliff,improved,cvm",
              "--out", out])
         results[data] = load(os.path.join(out, "per_person.csv"))
-        for i, (label, left_out, extra) in enumerate(ABLATION[1:], 1):
+        for i, (label, left_out, extra) in enumerate(ablation[1:], 1):
             opts = [o for p, v in PARTS.items() if p not in left_out for o in v] + extra
             vout = os.path.join(a.out, f"{data}-variant-{i}")
             run([a.cliff, "eval", *eval_args(data, maps), "--seeds", a.seeds, "--methods", "cliff,cvm", *opts,
@@ -190,7 +192,7 @@ def main():
     print("| variant | worst / constant velocity (all data, after the first step) | THÖR1 4 s / cvm | "
           "MAGNI 4.8 s / cvm (top-1 ADE / FDE) | MAGNI 12 s / paper | ATC 5 / 20 / 50 s / paper | ATC reach 50 s |")
     print("|---|---|---|---|---|---|---|")
-    for label, _, _ in ABLATION:
+    for label, _, _ in ablation:
         m = "improved" if label == "`improved`" else label
         worst = max((worst_vs_cvm(rows, m)[0] + (d,) for d, rows in results.items()), key=lambda x: x[0])
         r = results

@@ -21,7 +21,8 @@
 //!
 //! Run: `cargo bench --bench options_cost [-- ROUNDS [CALLS_PER_BATCH]] [CASE ...]`
 //! (default 200 rounds of 50 calls; the cases named, beside the default one, or all:
-//! scores, speed, coast, follow, speed_scores, all, improved; `baseline` runs the
+//! scores, speed, coast, follow, speed_scores, all, improved (the preset's options),
+//! improved_unpruned (the same without [`Options::prune`]); `baseline` runs the
 //! baseline path alone).
 
 use std::hint::black_box;
@@ -30,6 +31,7 @@ use std::time::Instant;
 use cliff::map::CliffMap;
 use cliff::math::Simd;
 use cliff::motion::State;
+use cliff::predict::preset::IMPROVED;
 use cliff::predict::{Options, Params, Rollout, TrajectoryBatch};
 
 mod common;
@@ -110,15 +112,14 @@ fn main() {
                 ..Options::default()
             },
         ),
+        // what the improved preset asks for (its beta 2 costs nothing more)
+        ("improved", IMPROVED.options),
+        // the same with every candidate rolled to the horizon
         (
-            // what the improved preset asks for (its beta 2 costs nothing more)
-            "improved",
+            "improved_unpruned",
             Options {
-                follow: 4.0,
-                candidates: 5,
-                speed_prior: true,
-                scores: true,
-                ..Options::default()
+                prune: false,
+                ..IMPROVED.options
             },
         ),
     ]

@@ -25,8 +25,8 @@
 //! work: at most `max_agents x max_k x max_steps` predicted positions (32 x 50 x 100 by
 //! default; a method that costs a multiple of CLiFF-LHMP per position,
 //! [`cost_factor`](cliff::predict::preset::cost_factor), that many times fewer: the
-//! improved preset counts 10, its 5 candidates per kept sample times 2 for its follow
-//! draw), and a sampling radius of
+//! improved preset counts 9: its 5 candidates pruned to 2 per kept sample halfway, times
+//! 2 for its follow draw, times 1.25 for the candidates' scores), and a sampling radius of
 //! at most the map's limit (4 grid steps by default).
 //! Each position costs one map lookup, which tests at most `(floor(2 r / step) + 1)^2`
 //! locations through the grid scan (81 at the default limit) and usually one through a

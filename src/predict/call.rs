@@ -3,7 +3,7 @@
 //! with or without scores, speed kernel, coasting, follow and candidates).
 
 use super::cvm::{cvm_score, roll_cvm};
-use super::lanes::{ANY, Extras, Lanes, PAPER, SPEED};
+use super::lanes::{ANY, Extras, Lane, Lanes, PAPER, SPEED};
 use super::seeds::agent_rng;
 use super::{BatchMut, Method, Params, Point};
 use crate::map::CliffMap;
@@ -17,8 +17,12 @@ pub(super) struct Candidates {
     pub(super) lens: Vec<u32>,
     pub(super) scores: Vec<f32>,
     pub(super) order: Vec<u32>,
+    /// The candidates' [`rank_key`]s, sorted.
+    pub(super) keys: Vec<u128>,
     /// Per step: the sums of the samples' x and y, and how many reach it (consensus).
     pub(super) centre: Vec<[f64; 3]>,
+    /// The candidates' lanes between the stretches of a pruned rollout.
+    pub(super) lanes: Vec<Lane>,
 }
 
 /// One call's inputs and outputs, for the flavour dispatch.
@@ -101,6 +105,9 @@ impl Call<'_, '_> {
             scratch.lens.resize(c * k, 0);
             scratch.scores.resize(c * k, 0.0);
             scratch.order.resize(c * k, 0);
+            if extras.prune {
+                scratch.lanes.resize(c * k, Lane::default());
+            }
         }
         for (a, state) in agents.iter().enumerate() {
             let state = &match extras.speed_prior {
@@ -130,24 +137,26 @@ impl Call<'_, '_> {
                 }
                 continue;
             }
-            lanes.roll_agent::<MOTION, true>(
-                rng,
-                &mut scratch.tracks,
-                &mut scratch.lens,
-                &mut scratch.scores,
-            );
+            // (pruned: the candidates left, the first `m`)
+            let m = if extras.prune {
+                {
+                    // the likelihood scores are the output's
+                    let ranked = agent_scores.is_some() && !extras.consensus;
+                    let schedule = super::PRUNE_SCHEDULE;
+                    lanes.roll_pruned::<MOTION>(rng, schedule, k, steps, ranked, scratch)
+                }
+            } else {
+                lanes.roll_agent::<MOTION, true>(
+                    rng,
+                    &mut scratch.tracks,
+                    &mut scratch.lens,
+                    &mut scratch.scores,
+                );
+                c * k
+            };
             // keep the k that reach furthest, then the highest-scored (ties: drawn first)
-            let (cl, cs) = (&scratch.lens, &scratch.scores);
-            for (i, o) in scratch.order.iter_mut().enumerate() {
-                *o = i as u32;
-            }
-            scratch.order.sort_unstable_by(|&x, &y| {
-                let (x, y) = (x as usize, y as usize);
-                cl[y]
-                    .cmp(&cl[x])
-                    .then(cs[y].total_cmp(&cs[x]))
-                    .then(x.cmp(&y))
-            });
+            let (cl, cs) = (&scratch.lens[..m], &scratch.scores[..m]);
+            rank(cl, cs, &mut scratch.keys, &mut scratch.order);
             for (s, &i) in scratch.order[..k].iter().enumerate() {
                 let i = i as usize;
                 tracks[s * steps..(s + 1) * steps]
@@ -164,6 +173,34 @@ impl Call<'_, '_> {
                 }
             }
         }
+    }
+}
+
+/// The order key of candidate `i`, which reaches `len` with score `score`: the furthest
+/// reaching first, then the highest score (in [`f32::total_cmp`]'s order), then the one
+/// drawn first, as one unsigned integer (greater ranks first).
+#[inline]
+fn rank_key(len: u32, score: f32, i: usize) -> u128 {
+    let b = score.to_bits();
+    // total_cmp's order as an unsigned one: negative numbers reversed, below the others
+    let s = if b >> 31 == 1 { !b } else { b | 0x8000_0000 };
+    ((len as u128) << 64) | ((s as u128) << 32) | (u32::MAX - i as u32) as u128
+}
+
+/// Order the candidates of reaches `lens` and scores `scores` best first (the furthest
+/// reaching, then the highest-scored, ties to the one drawn first) into
+/// `order[..lens.len()]`, with `keys` as scratch.
+pub(super) fn rank(lens: &[u32], scores: &[f32], keys: &mut Vec<u128>, order: &mut [u32]) {
+    keys.clear();
+    keys.extend(
+        lens.iter()
+            .zip(scores)
+            .enumerate()
+            .map(|(i, (&l, &s))| rank_key(l, s, i)),
+    );
+    keys.sort_unstable_by(|a, b| b.cmp(a));
+    for (o, &key) in order.iter_mut().zip(keys.iter()) {
+        *o = u32::MAX - key as u32;
     }
 }
 
@@ -190,7 +227,9 @@ fn consensus(tracks: &[Point], lens: &[u32], scores: &mut [f32], centre: &mut Ve
         let len = len as usize;
         let mut sum = 0.0;
         for (c, p) in centre.iter().zip(&track[..len]) {
-            sum += (p[0] as f64 - c[0]).hypot(p[1] as f64 - c[1]);
+            // (a square root, not `hypot`: the positions are f32, far from overflow)
+            let (dx, dy) = (p[0] as f64 - c[0], p[1] as f64 - c[1]);
+            sum += (dx * dx + dy * dy).sqrt();
         }
         let mean = if len > 0 { sum / len as f64 } else { 0.0 };
         // positions beyond f64's range (absurd speeds) give no distance: ranked last

@@ -23,6 +23,8 @@ pub(super) struct Extras {
     pub(super) follow: f64,
     /// Samples drawn per kept sample (at least 1).
     pub(super) candidates: usize,
+    /// [`Options::prune`](super::Options::prune): candidates rolled in pruned stretches.
+    pub(super) prune: bool,
     pub(super) speed_prior: Option<SpeedPrior>,
     /// [`Options::trust`](super::Options::trust), seconds (0: off).
     pub(super) trust: f64,
@@ -53,6 +55,104 @@ pub(super) const ANY: u8 = 2;
 /// on the THÖR1 benchmark case (k = 20): groups of 4 lanes 18.8 us, 8 lanes 15.3 us,
 /// one group of 20 lanes 13.7 us.
 pub(super) const MAX_LANES: usize = 20;
+
+/// Where the lanes of one group are between stretches of steps: what the lane loop
+/// carries from one step to the next (lanes past the group's samples stay dead).
+#[derive(Debug, Clone, Copy)]
+pub(super) struct LaneState<const N: usize> {
+    px: [f64; N],
+    py: [f64; N],
+    ux: [f32; N],
+    uy: [f32; N],
+    theta: [f64; N],
+    speed: [f64; N],
+    loc: [usize; N],
+    alive: [bool; N],
+    on_map: [bool; N],
+    coast_left: [u32; N],
+    /// The steps' log-densities summed so far (with scores).
+    score: [f32; N],
+}
+
+/// One sample's lane of a [`LaneState`], kept between the stretches of a pruned
+/// rollout (`prune.rs`).
+#[derive(Debug, Clone, Copy, Default)]
+pub(super) struct Lane {
+    px: f64,
+    py: f64,
+    ux: f32,
+    uy: f32,
+    theta: f64,
+    speed: f64,
+    loc: usize,
+    alive: bool,
+    on_map: bool,
+    coast_left: u32,
+    /// The sample's log-densities summed so far.
+    pub(super) score: f32,
+}
+
+impl<const N: usize> LaneState<N> {
+    /// The lanes `lanes` (at most `N`; the others dead).
+    fn load(lanes: &[Lane]) -> Self {
+        let mut st = LaneState {
+            px: [0.0; N],
+            py: [0.0; N],
+            ux: [1.0; N],
+            uy: [0.0; N],
+            theta: [0.0; N],
+            speed: [0.0; N],
+            loc: [0; N],
+            alive: [false; N],
+            on_map: [false; N],
+            coast_left: [0; N],
+            score: [0.0; N],
+        };
+        for (l, lane) in lanes.iter().enumerate() {
+            st.px[l] = lane.px;
+            st.py[l] = lane.py;
+            st.ux[l] = lane.ux;
+            st.uy[l] = lane.uy;
+            st.theta[l] = lane.theta;
+            st.speed[l] = lane.speed;
+            st.loc[l] = lane.loc;
+            st.alive[l] = lane.alive;
+            st.on_map[l] = lane.on_map;
+            st.coast_left[l] = lane.coast_left;
+            st.score[l] = lane.score;
+        }
+        st
+    }
+
+    /// Write the first `lanes.len()` lanes into `lanes`.
+    fn store(&self, lanes: &mut [Lane]) {
+        for (l, lane) in lanes.iter_mut().enumerate() {
+            *lane = Lane {
+                px: self.px[l],
+                py: self.py[l],
+                ux: self.ux[l],
+                uy: self.uy[l],
+                theta: self.theta[l],
+                speed: self.speed[l],
+                loc: self.loc[l],
+                alive: self.alive[l],
+                on_map: self.on_map[l],
+                coast_left: self.coast_left[l],
+                score: self.score[l],
+            };
+        }
+    }
+}
+
+/// End a sample of `track.len()` steps that reached `len`: the positions after it NaN;
+/// its score, the `partial` log-density of its steps and [`NO_LOCATION_LOG_DENSITY`] for
+/// each step it does not reach.
+#[inline]
+pub(super) fn finish_sample(track: &mut [Point], len: u32, partial: f32) -> f32 {
+    let steps = track.len();
+    track[len as usize..].fill([f32::NAN; 2]);
+    (partial as f64 + (steps - len as usize) as f64 * NO_LOCATION_LOG_DENSITY) as f32
+}
 
 /// What every group of one agent's samples shares.
 pub(super) struct Lanes<'a, F> {
@@ -87,54 +187,152 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
             } else {
                 &mut []
             };
-            #[cfg(target_arch = "x86_64")]
-            if self.extras.simd == Simd::Avx2Fma {
-                // SAFETY: `Extras::simd` is a path the processor has (`Simd::available`,
-                // checked where the call's extras are made), so AVX2 and FMA exist.
-                unsafe {
-                    match n {
-                        1..=4 => {
-                            self.roll_avx2::<4, MOTION, SCORES>(rng, tracks, lens, group_scores)
-                        }
-                        5..=8 => {
-                            self.roll_avx2::<8, MOTION, SCORES>(rng, tracks, lens, group_scores)
-                        }
-                        9..=12 => {
-                            self.roll_avx2::<12, MOTION, SCORES>(rng, tracks, lens, group_scores)
-                        }
-                        13..=16 => {
-                            self.roll_avx2::<16, MOTION, SCORES>(rng, tracks, lens, group_scores)
-                        }
-                        _ => self.roll_avx2::<MAX_LANES, MOTION, SCORES>(
-                            rng,
-                            tracks,
-                            lens,
-                            group_scores,
-                        ),
-                    }
-                }
-                continue;
-            }
-            match n {
-                1..=4 => self.roll::<4, MOTION, SCORES>(rng, tracks, lens, group_scores),
-                5..=8 => self.roll::<8, MOTION, SCORES>(rng, tracks, lens, group_scores),
-                9..=12 => self.roll::<12, MOTION, SCORES>(rng, tracks, lens, group_scores),
-                13..=16 => self.roll::<16, MOTION, SCORES>(rng, tracks, lens, group_scores),
-                _ => self.roll::<MAX_LANES, MOTION, SCORES>(rng, tracks, lens, group_scores),
-            }
+            self.group_any::<MOTION, SCORES>(rng, None, 0, steps, tracks, lens, group_scores);
         }
     }
 
-    /// [`roll_body`](Self::roll_body) on the baseline instructions.
-    #[inline(never)]
-    fn roll<const N: usize, const MOTION: u8, const SCORES: bool>(
+    /// Steps `from..to` of one group of at most [`MAX_LANES`] samples of one agent
+    /// (`lens.len()` of them, `tracks` their positions), scored with `SCORES` (else the
+    /// lanes' scores stay as they are), from the lanes `lanes`
+    /// (from the agent's start when `from` is 0), which it updates: a stretch of a pruned
+    /// rollout. The tracks' positions after the stretch are left as they are, and the
+    /// lanes hold the partial scores ([`finish_sample`] ends a sample).
+    #[allow(clippy::too_many_arguments)] // the group's buffers
+    pub(super) fn roll_stretch<const MOTION: u8, const SCORES: bool>(
         &self,
         rng: &mut Xoshiro256PlusPlus,
+        lanes: &mut [Lane],
+        from: usize,
+        to: usize,
+        tracks: &mut [Point],
+        lens: &mut [u32],
+    ) {
+        debug_assert!(lanes.len() == lens.len() && lens.len() <= MAX_LANES);
+        self.group_any::<MOTION, SCORES>(rng, Some(lanes), from, to, tracks, lens, &mut []);
+    }
+
+    /// One group (at most [`MAX_LANES`] samples) in the copy of the loop with the
+    /// smallest lane count that holds it.
+    #[allow(clippy::too_many_arguments)] // the group's buffers
+    fn group_any<const MOTION: u8, const SCORES: bool>(
+        &self,
+        rng: &mut Xoshiro256PlusPlus,
+        lanes: Option<&mut [Lane]>,
+        from: usize,
+        to: usize,
         tracks: &mut [Point],
         lens: &mut [u32],
         scores: &mut [f32],
     ) {
-        self.roll_body::<N, MOTION, SCORES, Separate>(rng, tracks, lens, scores)
+        let args = (rng, lanes, from, to, tracks, lens, scores);
+        match args.5.len() {
+            1..=4 => self.group::<4, MOTION, SCORES>(args),
+            5..=8 => self.group::<8, MOTION, SCORES>(args),
+            9..=12 => self.group::<12, MOTION, SCORES>(args),
+            13..=16 => self.group::<16, MOTION, SCORES>(args),
+            _ => self.group::<MAX_LANES, MOTION, SCORES>(args),
+        }
+    }
+
+    /// [`group_any`](Self::group_any) with `N` lanes: the lanes' state from the start
+    /// or from `lanes`, the steps on the path the extras name, then the samples ended
+    /// (whole rollouts) or the lanes stored (stretches).
+    #[allow(clippy::type_complexity)] // group_any's arguments, passed through
+    #[inline(always)]
+    fn group<const N: usize, const MOTION: u8, const SCORES: bool>(
+        &self,
+        (rng, lanes, from, to, tracks, lens, scores): (
+            &mut Xoshiro256PlusPlus,
+            Option<&mut [Lane]>,
+            usize,
+            usize,
+            &mut [Point],
+            &mut [u32],
+            &mut [f32],
+        ),
+    ) {
+        let n = lens.len();
+        let steps = tracks.len() / n;
+        debug_assert!(!SCORES || lanes.is_some() || scores.len() == n);
+        let mut st = match &lanes {
+            Some(lanes) if from > 0 => LaneState::load(lanes),
+            _ => {
+                lens.fill(0);
+                self.start::<N, MOTION>(n)
+            }
+        };
+        #[cfg(target_arch = "x86_64")]
+        if self.extras.simd == Simd::Avx2Fma {
+            // SAFETY: `Extras::simd` is a path the processor has (`Simd::available`,
+            // checked where the call's extras are made), so AVX2 and FMA exist.
+            unsafe { self.roll_avx2::<N, MOTION, SCORES>(rng, &mut st, from, to, tracks, lens) };
+        } else {
+            self.roll::<N, MOTION, SCORES>(rng, &mut st, from, to, tracks, lens);
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        self.roll::<N, MOTION, SCORES>(rng, &mut st, from, to, tracks, lens);
+        match lanes {
+            Some(lanes) => st.store(lanes),
+            None => {
+                for (l, (track, &len)) in tracks.chunks_exact_mut(steps).zip(&*lens).enumerate() {
+                    let score = finish_sample(track, len, st.score[l]);
+                    if SCORES {
+                        scores[l] = score;
+                    }
+                }
+            }
+        }
+    }
+
+    /// The lanes of `n` samples at the agent's start.
+    #[inline(always)]
+    fn start<const N: usize, const MOTION: u8>(&self, n: usize) -> LaneState<N> {
+        let (state, extras) = (self.state, self.extras);
+        let coast_steps = if MOTION == ANY { extras.coast_steps } else { 0 };
+        let trusting = MOTION == ANY && extras.trust > 0.0;
+        let theta0 = wrap_2pi(state.heading);
+        let (s0, c0) = fastmath::sin_cos(theta0);
+        let start = (self.near)(state.position);
+        let mut st = LaneState {
+            px: [state.position.x; N],
+            py: [state.position.y; N],
+            ux: [c0 as f32; N],
+            uy: [s0 as f32; N],
+            theta: [theta0; N],
+            speed: [if trusting {
+                self.observed_speed
+            } else {
+                state.speed
+            }; N],
+            loc: [start.unwrap_or(0); N],
+            // alive: the sample goes on; on_map: it has a location to sample from
+            // (always, without coasting). Lanes n..N stay dead: they never draw, and
+            // their arithmetic is discarded.
+            alive: [false; N],
+            on_map: [false; N],
+            coast_left: [coast_steps; N],
+            score: [0.0; N],
+        };
+        for l in 0..n {
+            st.on_map[l] = start.is_some();
+            st.alive[l] = start.is_some() || coast_steps > 0;
+        }
+        st
+    }
+
+    /// [`roll_body`](Self::roll_body) on the baseline instructions.
+    #[inline(never)]
+    #[allow(clippy::too_many_arguments)] // the group's buffers
+    fn roll<const N: usize, const MOTION: u8, const SCORES: bool>(
+        &self,
+        rng: &mut Xoshiro256PlusPlus,
+        st: &mut LaneState<N>,
+        from: usize,
+        to: usize,
+        tracks: &mut [Point],
+        lens: &mut [u32],
+    ) {
+        self.roll_body::<N, MOTION, SCORES, Separate>(rng, st, from, to, tracks, lens)
     }
 
     /// [`roll_body`](Self::roll_body) compiled for AVX2 and FMA (eight single-precision
@@ -145,19 +343,25 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma")]
     #[inline(never)]
+    #[allow(clippy::too_many_arguments)] // the group's buffers
     unsafe fn roll_avx2<const N: usize, const MOTION: u8, const SCORES: bool>(
         &self,
         rng: &mut Xoshiro256PlusPlus,
+        st: &mut LaneState<N>,
+        from: usize,
+        to: usize,
         tracks: &mut [Point],
         lens: &mut [u32],
-        scores: &mut [f32],
     ) {
-        self.roll_body::<N, MOTION, SCORES, crate::math::simd::Fused>(rng, tracks, lens, scores)
+        self.roll_body::<N, MOTION, SCORES, crate::math::simd::Fused>(
+            rng, st, from, to, tracks, lens,
+        )
     }
 
-    /// Up to `N` CLiFF-LHMP samples of one agent: `tracks` holds `lens.len()` samples of
-    /// `steps` positions each, `scores` (with `SCORES`) their scores. `N` is a multiple
-    /// of four.
+    /// Steps `from..to` of up to `N` CLiFF-LHMP samples of one agent from the lanes
+    /// `st`: `tracks` holds `lens.len()` samples of `steps` positions each. `N` is a
+    /// multiple of four. A whole rollout is the lanes at the start, steps `0..steps`,
+    /// then each sample ended ([`finish_sample`]).
     ///
     /// As in the reference: the direction is sampled at the current position, the
     /// person moves, and a new position with no map location near it ends the sample and
@@ -172,12 +376,15 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
     /// `M` says how its single-precision kernels and position updates multiply and add
     /// (fused only in the AVX2 copy).
     #[inline(always)]
+    #[allow(clippy::too_many_arguments)] // the group's buffers
     fn roll_body<const N: usize, const MOTION: u8, const SCORES: bool, M: MulAdd>(
         &self,
         rng: &mut Xoshiro256PlusPlus,
+        st: &mut LaneState<N>,
+        from: usize,
+        to: usize,
         tracks: &mut [Point],
         lens: &mut [u32],
-        scores: &mut [f32],
     ) {
         let Lanes {
             map,
@@ -189,7 +396,6 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
         } = *self;
         let n = lens.len();
         debug_assert!(n <= N && N.is_multiple_of(4));
-        debug_assert!(!SCORES || scores.len() == n);
         let steps = tracks.len() / n;
         let dt = params.dt;
         let dist = state.speed * dt;
@@ -208,28 +414,19 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
         let trusting = MOTION == ANY && extras.trust > 0.0;
         let theta0 = wrap_2pi(state.heading);
         let (s0, c0) = fastmath::sin_cos(theta0);
-        let start = near(state.position);
-        let mut px = [state.position.x; N];
-        let mut py = [state.position.y; N];
-        let mut ux = [c0 as f32; N];
-        let mut uy = [s0 as f32; N];
-        let mut theta = [theta0; N];
-        let mut speed = [if trusting {
-            observed_speed
-        } else {
-            state.speed
-        }; N];
-        let mut loc = [start.unwrap_or(0); N];
-        // alive: the sample goes on; on_map: it has a location to sample from (always,
-        // without coasting). Lanes n..N stay dead: they never draw, and their
-        // arithmetic is discarded.
-        let mut alive = [false; N];
-        let mut on_map = [false; N];
-        let mut coast_left = [coast_steps; N];
-        for l in 0..n {
-            on_map[l] = start.is_some();
-            alive[l] = start.is_some() || coast_steps > 0;
-        }
+        let LaneState {
+            mut px,
+            mut py,
+            mut ux,
+            mut uy,
+            mut theta,
+            mut speed,
+            mut loc,
+            mut alive,
+            mut on_map,
+            mut coast_left,
+            mut score,
+        } = *st;
         let mut ts = [0.0f64; N];
         let mut rs = [0.0f64; N];
         // (single precision: a score sums at most a few hundred steps of the horizon's
@@ -238,9 +435,7 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
         // a coasting lane's heading, kept through the turn
         let (mut old_ux, mut old_uy, mut old_theta) = ([0.0f32; N], [0.0f32; N], [0.0f64; N]);
         let mut step_score = [0.0f32; N];
-        let mut score = [0.0f32; N];
-        lens.fill(0);
-        for j in 0..steps {
+        for j in from..to {
             // Trust: how far the map has taken over from the observed motion at the
             // start of this step (0 at the first); the speed moves from the observed one
             // towards the prior's as the heading kernel gains weight.
@@ -436,14 +631,19 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
                 break;
             }
         }
-        for (l, &len) in lens.iter().enumerate() {
-            tracks[l * steps + len as usize..(l + 1) * steps].fill([f32::NAN; 2]);
-            if SCORES {
-                scores[l] = (score[l] as f64
-                    + (steps - len as usize) as f64 * NO_LOCATION_LOG_DENSITY)
-                    as f32;
-            }
-        }
+        *st = LaneState {
+            px,
+            py,
+            ux,
+            uy,
+            theta,
+            speed,
+            loc,
+            alive,
+            on_map,
+            coast_left,
+            score,
+        };
     }
 }
 

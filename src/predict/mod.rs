@@ -33,6 +33,7 @@ mod cvm;
 mod lanes;
 mod options;
 pub mod preset;
+mod prune;
 mod rollout;
 mod seeds;
 mod with_options;
@@ -45,6 +46,7 @@ use crate::motion::State;
 
 pub use batch::{BatchMut, Point, TrajectoryBatch};
 pub use options::{CONSENSUS_STEP_PENALTY, NO_LOCATION_LOG_DENSITY, Options, Rank};
+pub use prune::PRUNE_SCHEDULE;
 pub use rollout::{Rollout, Tables};
 pub use with_options::{predict_batch, predict_batch_into, predict_into_with, predict_with};
 

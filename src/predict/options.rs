@@ -34,6 +34,11 @@
 //!   `k` of `candidates x k` drawn ones: those that reach furthest (the paper's rule
 //!   stops a sample where the map has no data), then the highest-scored. Costs
 //!   `candidates` times the work (with follow, twice that: [`Options::cost_factor`]).
+//! * **Prune** ([`Options::prune`], with candidates): the candidates are rolled in
+//!   stretches and cut at the checkpoints of [`PRUNE_SCHEDULE`] to the best of them by
+//!   their partial scores (the furthest reaching first), so most of them stop early:
+//!   with 5 candidates, cut to `2 k` halfway, 3.5 times the samples' steps of `k`
+//!   samples instead of 5.
 //! * **Speed prior** ([`Options::speed_prior`]): the start speed regresses to the
 //!   typical speed of the map's walkers with the map's
 //!   [`SpeedPrior`](crate::motion::SpeedPrior) (`cliff map build` learns one; a map
@@ -69,7 +74,10 @@
 //! assert!(batch.scores().iter().all(|s| *s <= batch.score(0, best).unwrap()));
 //! ```
 
+#[cfg(doc)]
+use super::PRUNE_SCHEDULE;
 use super::PredictError;
+use super::prune::pruned_share;
 
 /// Log-density of a step without a map location in a sample's score: a uniform
 /// velocity over headings `[0, 2pi)` and speeds `[0, 2]` m/s, `-ln(4 pi)`.
@@ -91,6 +99,12 @@ pub struct Options {
     /// Keep the best `k` of `candidates x k` samples per agent (0 or 1: draw `k`, the
     /// paper; at most [`MAX_CANDIDATES`]).
     pub candidates: u32,
+    /// Prune the candidates ([`Options::candidates`] > 1) along the way: they are
+    /// rolled in stretches, and at each checkpoint of [`PRUNE_SCHEDULE`] only the best
+    /// go on (those that reach furthest, then the highest partial score), down to no
+    /// fewer than `k`; the `k` kept are the best of those left at the horizon. Most
+    /// candidates then stop early.
+    pub prune: bool,
     /// Start from the speed the map's speed prior gives for the observed one.
     pub speed_prior: bool,
     /// Seconds over which the map takes over from the observed motion: at the step that
@@ -142,31 +156,45 @@ impl Options {
             && !self.scores
             && self.follow == 0.0
             && self.candidates <= 1
+            && !self.prune
             && !self.speed_prior
             && self.trust == 0.0
             && self.blend == 0.0
             && self.rank == Rank::Likelihood
     }
 
-    /// How many times the paper's work a call with these options does, at most: the
-    /// samples drawn per kept sample ([`Options::candidates`], at least 1), times 2 with
-    /// follow on. What a daemon's cost limits and its scheduler count.
+    /// How many times the paper's work a call with these options does, at most: 2 with
+    /// follow on (else 1), and with [`Options::candidates`] > 1 that times the samples'
+    /// steps rolled per kept sample's step (the candidates, or fewer when
+    /// [pruned](Options::prune)) times 1.25 for their scores, rounded up. What a
+    /// daemon's cost limits and its scheduler count.
     ///
-    /// Measured per predicted position on the benchmark people (`cargo bench --bench
-    /// options_cost`, BENCHMARKS.md): scores, the speed kernel and coasting each cost
-    /// under 1.3 times the paper's step, follow about 1.6 times; all of them together
-    /// 1.7 times, `improved` (5 candidates, follow, scores) 9.4-9.5 times per kept
-    /// position.
+    /// Measured per call on the benchmark people (`cargo bench --bench options_cost`,
+    /// BENCHMARKS.md): scores, the speed kernel and coasting each cost under 1.3 times
+    /// the paper, follow about 1.6 times; `improved` (5 candidates pruned, follow,
+    /// scores, trust, blend, consensus) 8-9 times, 10-11 without pruning.
     ///
     /// ```
     /// use cliff::predict::Options;
     /// assert_eq!(Options::default().cost_factor(), 1);
     /// assert_eq!(Options { scores: true, speed_beta: 1.0, ..Options::default() }.cost_factor(), 1);
-    /// assert_eq!(Options { follow: 4.0, candidates: 5, ..Options::default() }.cost_factor(), 10);
+    /// assert_eq!(Options { follow: 4.0, candidates: 5, ..Options::default() }.cost_factor(), 13);
+    /// let pruned = Options { follow: 4.0, candidates: 5, prune: true, ..Options::default() };
+    /// assert_eq!(pruned.cost_factor(), 9); // 5 to half the horizon, then 2: 3.5 x 2 x 1.25
     /// ```
     pub fn cost_factor(&self) -> usize {
-        let follow = if self.follow > 0.0 { 2 } else { 1 };
-        self.candidates.max(1) as usize * follow
+        let follow = if self.follow > 0.0 { 2.0 } else { 1.0 };
+        let candidates = self.candidates.max(1) as usize;
+        if candidates == 1 {
+            return follow as usize;
+        }
+        let drawn = if self.prune {
+            pruned_share(candidates)
+        } else {
+            candidates as f64
+        };
+        // candidates are scored (to rank them), at about 1.25 times the step
+        (drawn * follow * 1.25).ceil() as usize
     }
 
     /// Check the options; the error names the first unusable one.

@@ -219,6 +219,7 @@ impl Rollout {
             coast_steps: options.coast_steps(params.dt),
             follow: options.follow,
             candidates: options.candidates.max(1) as usize,
+            prune: options.prune,
             speed_prior: if options.speed_prior {
                 map.speed_prior()
             } else {

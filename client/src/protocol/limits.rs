@@ -40,8 +40,8 @@ impl Limits {
 
     /// The most positions of CLiFF-LHMP's cost one request may ask for:
     /// `max_agents x max_k x max_steps`. A request whose method costs a multiple of
-    /// CLiFF-LHMP per position ([`cliff::predict::preset::cost_factor`]: 10 for the
-    /// improved preset, its 5 candidates per kept sample and its follow draw) may hold
+    /// CLiFF-LHMP per position ([`cliff::predict::preset::cost_factor`]: 9 for the
+    /// improved preset, its pruned candidates and its follow draw) may hold
     /// that many positions
     /// divided by the factor.
     pub fn max_cost(&self) -> u64 {

@@ -83,6 +83,11 @@ pub struct PredictionArgs {
     /// the work. 1 draws `k` (the paper).
     #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=16))]
     pub candidates: u32,
+    /// Prune the candidates (beyond the paper): roll them in stretches and let only the
+    /// best go on at each checkpoint (the furthest reaching, then the highest partial
+    /// score; `cliff::predict::PRUNE_SCHEDULE`), so most of them cost a few steps.
+    #[arg(long)]
+    pub prune: bool,
     /// Speed prior (beyond the paper): start from the speed the map's speed prior
     /// (learned by `cliff map build`) gives for the observed one; maps without a prior
     /// keep the observed speed.
@@ -135,6 +140,7 @@ impl PredictionArgs {
             scores,
             follow: self.follow,
             candidates: self.candidates,
+            prune: self.prune,
             speed_prior: self.speed_prior,
             trust: self.trust,
             blend: self.blend,
