@@ -13,6 +13,8 @@
 //! * [`plot_curves`]: ADE and FDE against the prediction horizon per method and run,
 //!   with one-standard-deviation bands, read from `summary.csv` files
 //!   ([`read_summary`]).
+//! * [`plot_lines`]: labelled lines over two numeric axes (linear or logarithmic x),
+//!   for measured series such as `cliff-bench --compare`'s latency distributions.
 //!
 //! The output format follows the file extension ([`ImageFormat::from_path`]). Text is
 //! drawn with an embedded font (DejaVu Sans), so nothing needs to be installed.
@@ -36,6 +38,7 @@
 
 mod curves;
 mod frame;
+mod lines;
 mod map;
 mod predict;
 mod render;
@@ -48,6 +51,7 @@ pub use curves::{
 };
 pub use frame::{Extent, Frame, PixelRect};
 pub(crate) use frame::{clip_polyline, clip_segment};
+pub use lines::{Line, LineChart, plot_lines, plot_lines_to};
 pub use map::{MapStyle, plot_map, plot_map_to};
 pub use predict::{PersonPrediction, PredictStyle, plot_predictions, plot_predictions_to};
 pub use render::{Floorplan, ImageFormat};
