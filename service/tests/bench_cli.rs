@@ -330,6 +330,11 @@ fn bench_compare_writes_a_report_with_the_floor_under_the_round_trip() {
             "20",
             "--steps",
             "30",
+            // every round trip pays one wake-up, floor and full alike: a hybrid client's
+            // spin-or-sleep choice depends on the last round trip, and on a loaded machine
+            // it may settle in either mode for a whole run
+            "--wait",
+            "block",
             "--out",
             dir.to_str().unwrap(),
         ],
