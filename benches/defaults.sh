@@ -25,13 +25,13 @@ for round in $(seq "$rounds"); do
         if [ "$workers" = default ]; then start; else start --workers "$workers"; fi
         for wait in hybrid block spin; do
             for agents in 1 8; do
-                j=$("$bin/cliff-bench" --json --clients 4 --requests 2000 --warmup 100 \
+                j=$("$bin/cliff-bench" --json --no-verify --clients 4 --requests 2000 --warmup 100 \
                     --agents "$agents" --k 20 --steps 30 --wait "$wait")
                 echo "{\"case\":\"workers-$workers/$wait/agents$agents\",\"round\":$round,\"bench\":$j}" | tee -a "$out"
             done
         done
         if [ "$workers" = default ]; then
-            j=$("$bin/cliff-bench" --json --clients 1 --requests 20000 --agents 1 --k 20 --steps 30 --wait hybrid)
+            j=$("$bin/cliff-bench" --json --no-verify --clients 1 --requests 20000 --agents 1 --k 20 --steps 30 --wait hybrid)
             echo "{\"case\":\"one-client/hybrid\",\"round\":$round,\"bench\":$j}" | tee -a "$out"
         fi
         stop

@@ -29,10 +29,10 @@ trap stop EXIT
 daemon=$!
 sleep 1
 out=$(mktemp)
-small() { "$bin/cliff-bench" --json --agents 1 --k 20 --steps 30 --rate 100 --requests 1000 --warmup 20 --wait hybrid; }
+small() { "$bin/cliff-bench" --json --no-verify --agents 1 --k 20 --steps 30 --rate 100 --requests 1000 --warmup 20 --wait hybrid; }
 echo "{\"case\":\"small-alone\",\"bench\":$(small)}" | tee -a "$out"
 for run in $(seq "$runs"); do
-    "$bin/cliff-bench" --json --agents "$big_agents" --k 50 --steps 100 --requests 3000 \
+    "$bin/cliff-bench" --json --no-verify --agents "$big_agents" --k 50 --steps 100 --requests 3000 \
         --warmup 20 --method "$big_method" --wait hybrid --deadline-ms 5000 > "$out.big" &
     big=$!
     sleep 1

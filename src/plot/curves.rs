@@ -315,7 +315,7 @@ pub struct CurvesLayout {
 }
 
 /// Series colours, in order (a ten-colour qualitative palette; repeats after ten).
-const PALETTE: [(u8, u8, u8); 10] = [
+pub(crate) const PALETTE: [(u8, u8, u8); 10] = [
     (31, 119, 180),
     (255, 127, 14),
     (44, 160, 44),

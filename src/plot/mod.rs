@@ -13,6 +13,8 @@
 //! * [`plot_curves`]: ADE and FDE against the prediction horizon per method and run,
 //!   with one-standard-deviation bands, read from `summary.csv` files
 //!   ([`read_summary`]).
+//! * [`plot_lines`]: labelled lines over two numeric axes (linear or logarithmic x),
+//!   for measured series such as `cliff-bench --compare`'s latency distributions.
 //!
 //! The output format follows the file extension ([`ImageFormat::from_path`]). Text is
 //! drawn with an embedded font (DejaVu Sans), so nothing needs to be installed.
@@ -37,6 +39,7 @@
 mod curves;
 mod diff;
 mod frame;
+mod lines;
 mod map;
 mod predict;
 mod render;
@@ -50,6 +53,7 @@ pub use curves::{
 pub use diff::{ADDED, MOVED, plot_diff, plot_diff_to};
 pub use frame::{Extent, Frame, PixelRect};
 pub(crate) use frame::{clip_polyline, clip_segment};
+pub use lines::{Line, LineChart, plot_lines, plot_lines_to};
 pub use map::{MapStyle, plot_map, plot_map_to};
 pub use predict::{PersonPrediction, PredictStyle, plot_predictions, plot_predictions_to};
 pub use render::{Floorplan, ImageFormat};

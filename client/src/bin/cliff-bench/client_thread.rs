@@ -1,14 +1,14 @@
-//! One client thread of the run: its requests through the daemon, timed
-//! ([`run_client`]).
+//! One thread of a run: its requests through a client, timed ([`run_client`]), or the
+//! same requests predicted in-process ([`run_local`]).
 
 use std::hint::black_box;
 use std::sync::Barrier;
 use std::time::{Duration, Instant};
 
 use cliff::map::CliffMap;
-use cliff_client::{ClientOptions, Error, LocalPredictor, Request};
+use cliff_client::{Error, LocalPredictor, Request};
 
-use crate::args::Args;
+use crate::args::{Args, Target};
 use crate::pace::Pace;
 
 pub(crate) fn consume<'a>(samples: impl Iterator<Item = &'a [[f32; 2]]>) -> f32 {
@@ -36,23 +36,28 @@ pub(crate) struct ClientResult {
     pub(crate) finished: Option<Instant>,
 }
 
-/// One client thread: connect, warm up, wait at the barrier, then send and time its
-/// requests (and compare them with in-process predictions under `--verify`).
-pub(crate) fn run_client(
-    a: &Args,
-    pool: &[Request],
-    map: &CliffMap,
-    barrier: &Barrier,
-    offset: usize,
-) -> ClientResult {
+/// What a thread of a run needs: the settings, the requests, the map and where this
+/// thread starts in the requests.
+pub(crate) struct Job<'a> {
+    pub(crate) a: &'a Args,
+    pub(crate) pool: &'a [Request],
+    pub(crate) map: &'a CliffMap,
+    pub(crate) barrier: &'a Barrier,
+    pub(crate) offset: usize,
+}
+
+/// One client thread: connect to `target`, warm up, wait at the barrier, then send and
+/// time its requests (and compare them with in-process predictions when `verify`).
+pub(crate) fn run_client(job: &Job<'_>, target: &Target, verify: bool) -> ClientResult {
+    let Job {
+        a,
+        pool,
+        map,
+        barrier,
+        offset,
+    } = *job;
     let mut out = ClientResult::default();
-    let options = ClientOptions {
-        wait: a.wait,
-        spin: Duration::from_micros(a.spin_us),
-        deadline: Duration::from_millis(a.deadline_ms),
-        prefix: a.prefix.clone().filter(|p| !p.is_empty()),
-    };
-    let client = a.connect(options);
+    let client = target.connect(a.client_options());
     let mut client = match client {
         Ok(c) => c,
         Err(e) => {
@@ -87,7 +92,7 @@ pub(crate) fn run_client(
                 black_box(consume(p.agents().flat_map(|ag| ag.samples())));
                 black_box(p.scores().iter().sum::<f32>());
                 out.latencies_ns.push(t0.elapsed().as_nanos() as u64);
-                if a.verify {
+                if verify {
                     let same = match local.predict(map, req.header(), req.rows()) {
                         Ok(b) => {
                             b.shape() == p.shape()
@@ -128,6 +133,54 @@ pub(crate) fn run_client(
                 if fatal {
                     break;
                 }
+            }
+        }
+    }
+    out.finished = Some(Instant::now());
+    out
+}
+
+/// One in-process thread: warm up, wait at the barrier, then predict and time the same
+/// requests as a client thread with the same offset (and pace).
+pub(crate) fn run_local(job: &Job<'_>) -> ClientResult {
+    let Job {
+        a,
+        pool,
+        map,
+        barrier,
+        offset,
+    } = *job;
+    let mut out = ClientResult::default();
+    let mut local = LocalPredictor::default();
+    for i in 0..a.warmup {
+        let r = &pool[(offset + i) % pool.len()];
+        if let Err(e) = local.predict(map, r.header(), r.rows()) {
+            out.errors.push(format!("warm-up in-process: {e}"));
+            barrier.wait();
+            return out;
+        }
+    }
+    out.latencies_ns.reserve(a.requests);
+    barrier.wait();
+    let mut pace = Pace::new(a.rate);
+    for i in 0..a.requests {
+        let req = &pool[(offset + i) % pool.len()];
+        pace.wait();
+        let t0 = Instant::now();
+        match local.predict(map, req.header(), req.rows()) {
+            Ok(b) => {
+                let (_, k, steps) = b.shape();
+                black_box(consume((0..b.shape().0 * k).map(|s| {
+                    &b.positions()[s * steps..s * steps + b.lens()[s] as usize]
+                })));
+                black_box(b.scores().iter().sum::<f32>());
+                out.latencies_ns.push(t0.elapsed().as_nanos() as u64);
+            }
+            Err(e) => {
+                out.failures += 1;
+                out.errors
+                    .push(format!("in-process prediction refused the request: {e}"));
+                break;
             }
         }
     }

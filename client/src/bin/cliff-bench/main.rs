@@ -1,35 +1,45 @@
 //! `cliff-bench`: round-trip latency and throughput of a running `cliffd`, next to the
-//! same predictions made in-process.
+//! same predictions made in-process, the bare transport's floor, and all of them side by
+//! side (`--compare`).
 //!
 //! `args.rs` holds the command line, `pool.rs` the requests, `client_thread.rs` one
-//! client's timed requests, `pace.rs` the `--rate` schedule and `summary.rs` the
-//! percentiles; this file runs the clients and the in-process side and reports.
+//! thread's timed requests (through a client or in-process), `runs.rs` a run of one way in
+//! with N threads, `pace.rs` the `--rate` schedule, `summary.rs` the percentiles,
+//! `machine.rs` the machine's facts and the core count, `floor.rs` the echo server of the
+//! floor, `compare.rs` and `report.rs` `--compare` and its report; this file runs a
+//! single measurement and prints it.
 
 mod args;
 mod client_thread;
+mod compare;
+mod floor;
+mod machine;
 mod pace;
 mod pool;
+mod report;
+mod runs;
 mod summary;
 
-use std::hint::black_box;
 use std::process::ExitCode;
-use std::sync::{Arc, Barrier};
-use std::time::Instant;
+use std::sync::Arc;
 
 use clap::Parser;
 use cliff::map::CliffMap;
-use cliff_client::{LocalPredictor, WaitMode};
+use cliff_client::WaitMode;
 
 use crate::args::Args;
-use crate::client_thread::{ClientResult, consume, run_client};
-use crate::pace::Pace;
+use crate::machine::{CoreBudget, Machine};
 use crate::pool::request_pool;
-use crate::summary::summarize;
+use crate::runs::{Way, run_way};
 
 fn main() -> ExitCode {
     let a = Args::parse();
     iceoryx2::prelude::set_log_level_from_env_or(iceoryx2::prelude::LogLevel::Error);
-    match run(a) {
+    let result = match a.serve_floor.clone() {
+        Some(shape) => floor::serve(&a, &shape).map(|()| ExitCode::SUCCESS),
+        None => run(a),
+    };
+    match result {
         Ok(code) => code,
         Err(e) => {
             eprintln!("error: {e}");
@@ -39,7 +49,7 @@ fn main() -> ExitCode {
 }
 
 fn run(a: Args) -> Result<ExitCode, String> {
-    if a.clients == 0 || a.requests == 0 || a.agents == 0 || a.k == 0 || a.steps == 0 {
+    if a.requests == 0 || a.agents == 0 || a.k == 0 || a.steps == 0 {
         return Err("--clients, --requests, --agents, --k and --steps must be at least 1".into());
     }
     if let Some(r) = a.rate
@@ -58,47 +68,51 @@ fn run(a: Args) -> Result<ExitCode, String> {
             ));
         }
     };
+    let counts = a.client_counts();
+    if counts.contains(&0) {
+        return Err("--clients, --requests, --agents, --k and --steps must be at least 1".into());
+    }
+    if counts.len() > 1 && !a.compare {
+        return Err(format!(
+            "--clients {}: a list of client counts is for --compare; a single run takes one count",
+            a.clients
+                .iter()
+                .map(|c| c.to_string())
+                .collect::<Vec<_>>()
+                .join(",")
+        ));
+    }
     let pool = Arc::new(request_pool(&map, &a)?);
     let map = Arc::new(map);
     let a = Arc::new(a);
+    if a.compare {
+        return compare::run(a, map, pool);
+    }
+    let clients = counts[0];
+    let mut machine = Machine::now();
+    let daemon = a.daemon_target();
+    let budget = CoreBudget::of(
+        machine.cores,
+        clients,
+        if a.remote() { WaitMode::Block } else { a.wait },
+        a.agents * a.k * a.steps,
+        a.daemon_workers.unwrap_or(machine.cores),
+        true,
+    );
+    if let Some(w) = budget.warning(a.wait) {
+        eprintln!("{w}");
+    }
 
-    // -- through the daemon
-    let barrier = Arc::new(Barrier::new(a.clients + 1));
-    let handles: Vec<_> = (0..a.clients)
-        .map(|c| {
-            let (a, pool, map, barrier) = (a.clone(), pool.clone(), map.clone(), barrier.clone());
-            std::thread::spawn(move || run_client(&a, &pool, &map, &barrier, c * 13))
-        })
-        .collect();
-    barrier.wait();
-    let start = Instant::now();
-    let results: Vec<ClientResult> = handles
-        .into_iter()
-        .map(|h| h.join().unwrap_or_default())
-        .collect();
-    let end = results
-        .iter()
-        .filter_map(|r| r.finished)
-        .max()
-        .unwrap_or_else(Instant::now);
-    let wall = end.duration_since(start).as_secs_f64();
-    let errors: Vec<String> = results.iter().flat_map(|r| r.errors.clone()).collect();
-    let failures: usize = results.iter().map(|r| r.failures).sum();
-    let slowest_failure_ms = results
-        .iter()
-        .map(|r| r.slowest_failure_ns)
-        .max()
-        .unwrap_or(0) as f64
-        / 1e6;
-    // the client that recovered least: its successful requests after its last failure
-    let recovered = results
-        .iter()
-        .map(|r| r.after_last_failure)
-        .min()
-        .unwrap_or(0);
-    let mismatches: usize = results.iter().map(|r| r.mismatches).sum();
-    let mut ipc: Vec<u64> = results.into_iter().flat_map(|r| r.latencies_ns).collect();
-    let done = ipc.len();
+    // -- through the daemon, then the same requests in-process
+    let full = run_way(&a, &Way::Daemon(daemon), clients, &pool, &map);
+    let done = full.completed();
+    let (errors, failures, slowest_failure_ms, recovered) = (
+        &full.errors,
+        full.failures,
+        full.slowest_failure_ms,
+        full.recovered,
+    );
+    let mismatches = full.mismatches.unwrap_or(0);
     if done == 0 {
         let first = errors
             .first()
@@ -106,44 +120,22 @@ fn run(a: Args) -> Result<ExitCode, String> {
             .unwrap_or("no request completed");
         return Err(format!("no request succeeded: {first}"));
     }
-
-    // -- the same requests in-process
-    let mut local = LocalPredictor::default();
-    for r in pool.iter().take(a.warmup.min(pool.len())) {
-        local
-            .predict(&map, r.header(), r.rows())
-            .map_err(|e| e.to_string())?;
+    let local = run_way(&a, &Way::InProcess, 1, &pool, &map);
+    if let Some(e) = local.errors.first() {
+        return Err(e.clone());
     }
-    let mut inproc = Vec::with_capacity(a.requests);
-    let mut pace = Pace::new(a.rate);
-    for i in 0..a.requests {
-        let req = &pool[i % pool.len()];
-        pace.wait();
-        let t0 = Instant::now();
-        let b = local
-            .predict(&map, req.header(), req.rows())
-            .map_err(|e| format!("in-process prediction refused the request: {e}"))?;
-        let (_, k, steps) = b.shape();
-        black_box(consume((0..b.shape().0 * k).map(|s| {
-            &b.positions()[s * steps..s * steps + b.lens()[s] as usize]
-        })));
-        black_box(b.scores().iter().sum::<f32>());
-        inproc.push(t0.elapsed().as_nanos() as u64);
-    }
-
-    let s = summarize(&mut ipc);
-    let l = summarize(&mut inproc);
+    machine.finish();
+    let wall = full.wall_s;
+    let (s, l) = (full.summary, local.summary);
     let rps = done as f64 / wall;
     let aps = rps * a.agents as f64;
-    let cores = std::thread::available_parallelism()
-        .map(|n| n.get())
-        .unwrap_or(0);
+    let cores = machine.cores;
 
     if a.json {
         let v = serde_json::json!({
             "service": a.service,
             "transport": if a.remote() { "zenoh" } else { "iceoryx2" },
-            "clients": a.clients,
+            "clients": clients,
             "requests_per_client": a.requests,
             "completed": done,
             "agents": a.agents,
@@ -174,14 +166,18 @@ fn run(a: Args) -> Result<ExitCode, String> {
             "failures": failures,
             "slowest_failure_ms": slowest_failure_ms,
             "min_successes_after_last_failure": recovered,
-            "mismatches": if a.verify { Some(mismatches) } else { None },
+            "mismatches": full.mismatches,
             "cpus": cores,
+            "machine": machine.json(),
+            "cores": budget.json(),
+            "warmup_excluded": true,
+            "percentiles": "nearest rank over every timed request (all clients)",
         });
         println!("{v}");
     } else {
         println!(
-            "cliff-bench: {} client(s) x {} requests (+{} warm-up each) to cliffd '{}' over {}{}",
-            a.clients,
+            "cliff-bench: {} client(s) x {} requests (+{} warm-up each, not counted) to cliffd '{}' over {}{}",
+            clients,
             a.requests,
             a.warmup,
             a.service,
@@ -226,9 +222,10 @@ fn run(a: Args) -> Result<ExitCode, String> {
         );
         println!(
             "  throughput: {:.0} requests/s = {:.0} agent-predictions/s ({} clients, {:.2} s, {} CPUs)",
-            rps, aps, a.clients, wall, cores
+            rps, aps, clients, wall, cores
         );
-        if a.verify {
+        println!("  machine: {}", machine.describe());
+        if a.verify() {
             println!(
                 "  verified: {} of {} responses identical to the in-process result",
                 done - mismatches,
@@ -248,18 +245,12 @@ fn run(a: Args) -> Result<ExitCode, String> {
         println!(
             "  in-process = the same requests decoded and predicted here, one thread, no IPC."
         );
-        if a.wait != WaitMode::Block && cores > 0 && a.clients + 1 > cores {
+        println!(
+            "  percentiles from all {done} timed requests (warm-up excluded); --compare adds the bare transport's floor."
+        );
+        if budget.oversubscribed() {
             println!(
-                "  note: {} {} clients + cliffd on {} CPUs compete for cores (a {} client busy-polls{}),\n        so latency measures the scheduler; use --wait block for throughput runs.",
-                a.clients,
-                a.wait,
-                cores,
-                a.wait,
-                if a.wait == WaitMode::Hybrid {
-                    format!(" for up to {} us", a.spin_us)
-                } else {
-                    String::new()
-                }
+                "  note: more spinning clients than free cores (see the warning on stderr): latency measures the scheduler."
             );
         }
     }
