@@ -447,6 +447,7 @@ fn improved_is_cliff_with_the_preset_in_eval_and_predict() {
         "4",
         "--candidates",
         "5",
+        "--prune",
         "--speed-prior",
         "--trust",
         "0.5",

@@ -29,6 +29,7 @@
 
 mod batch;
 mod call;
+mod candidates;
 mod cvm;
 mod lanes;
 mod options;
@@ -45,8 +46,7 @@ use crate::map::CliffMap;
 use crate::motion::State;
 
 pub use batch::{BatchMut, Point, TrajectoryBatch};
-pub use options::{CONSENSUS_STEP_PENALTY, NO_LOCATION_LOG_DENSITY, Options, Rank};
-pub use prune::PRUNE_SCHEDULE;
+pub use options::{CONSENSUS_STEP_PENALTY, NO_LOCATION_LOG_DENSITY, Options, PRUNE_SCHEDULE, Rank};
 pub use rollout::{Rollout, Tables};
 pub use with_options::{predict_batch, predict_batch_into, predict_into_with, predict_with};
 

@@ -74,10 +74,7 @@
 //! assert!(batch.scores().iter().all(|s| *s <= batch.score(0, best).unwrap()));
 //! ```
 
-#[cfg(doc)]
-use super::PRUNE_SCHEDULE;
 use super::PredictError;
-use super::prune::pruned_share;
 
 /// Log-density of a step without a map location in a sample's score: a uniform
 /// velocity over headings `[0, 2pi)` and speeds `[0, 2]` m/s, `-ln(4 pi)`.
@@ -245,4 +242,27 @@ impl Options {
     pub(super) fn coast_steps(&self, dt: f64) -> u32 {
         (self.coast / dt + 1e-9).floor().min(u32::MAX as f64) as u32
     }
+}
+
+/// The checkpoints of a pruned rollout, `(fraction, keep)`: at `fraction` of the
+/// horizon's steps (rounded, at least one step in, before the last) the candidates left
+/// are cut to `keep` times `k` (rounded up, at least `k`). Chosen on held-out data
+/// (BENCHMARKS.md, "Pruned candidates"): halfway, to two per kept sample. Earlier or
+/// harder cuts lose accuracy at the horizons after the cut (a sample's partial
+/// likelihood says little about whether it will reach the horizon, which the final
+/// choice weighs first).
+pub const PRUNE_SCHEDULE: &[(f64, f64)] = &[(0.5, 2.0)];
+
+/// The samples' steps a pruned rollout of `candidates` per kept sample rolls, per kept
+/// sample's step, at most (the share of the horizon each stretch covers times the
+/// candidates that roll it; the checkpoints' rounding aside): what
+/// [`Options::cost_factor`](super::Options::cost_factor) counts.
+pub(super) fn pruned_share(candidates: usize) -> f64 {
+    let mut share = 0.0;
+    let (mut from, mut rolling) = (0.0, candidates as f64);
+    for &(at, keep) in PRUNE_SCHEDULE {
+        share += (at - from) * rolling;
+        (from, rolling) = (at, rolling.min(keep.max(1.0)));
+    }
+    share + (1.0 - from) * rolling
 }

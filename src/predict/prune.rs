@@ -7,31 +7,10 @@
 use glam::DVec2;
 use rand_xoshiro::Xoshiro256PlusPlus;
 
-use super::call::{Candidates, rank};
+#[cfg(doc)]
+use super::PRUNE_SCHEDULE;
+use super::candidates::{Candidates, rank};
 use super::lanes::{Lanes, MAX_LANES, finish_sample};
-
-/// The checkpoints of a pruned rollout, `(fraction, keep)`: at `fraction` of the
-/// horizon's steps (rounded, at least one step in, before the last) the candidates left
-/// are cut to `keep` times `k` (rounded up, at least `k`). Chosen on held-out data
-/// (BENCHMARKS.md, "Pruned candidates"): halfway, to two per kept sample. Earlier or
-/// harder cuts lose accuracy at the horizons after the cut (a sample's partial
-/// likelihood says little about whether it will reach the horizon, which the final
-/// choice weighs first).
-pub const PRUNE_SCHEDULE: &[(f64, f64)] = &[(0.5, 2.0)];
-
-/// The samples' steps a pruned rollout of `candidates` per kept sample rolls, per kept
-/// sample's step, at most (the share of the horizon each stretch covers times the
-/// candidates that roll it; the checkpoints' rounding aside): what
-/// [`Options::cost_factor`](super::Options::cost_factor) counts.
-pub(super) fn pruned_share(candidates: usize) -> f64 {
-    let mut share = 0.0;
-    let (mut from, mut rolling) = (0.0, candidates as f64);
-    for &(at, keep) in PRUNE_SCHEDULE {
-        share += (at - from) * rolling;
-        (from, rolling) = (at, rolling.min(keep.max(1.0)));
-    }
-    share + (1.0 - from) * rolling
-}
 
 impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
     /// Roll the `scratch.lens.len()` candidates of one agent (their positions in
@@ -125,7 +104,9 @@ mod tests {
     use crate::map::CliffMap;
     use crate::math::Simd;
     use crate::motion::State;
+    use crate::predict::PRUNE_SCHEDULE;
     use crate::predict::lanes::{ANY, Extras, Lane};
+    use crate::predict::options::pruned_share;
     use crate::predict::seeds::agent_rng;
     use crate::predict::{Params, Point};
 

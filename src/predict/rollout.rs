@@ -11,7 +11,8 @@
 
 use glam::DVec2;
 
-use super::call::{Call, Candidates};
+use super::call::Call;
+use super::candidates::Candidates;
 use super::lanes::Extras;
 use super::options::Options;
 use super::{BatchMut, Method, Params, PredictError, preset};
