@@ -429,3 +429,69 @@ fn bench_compare_writes_a_report_with_the_floor_under_the_round_trip() {
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// With `--zenoh`, `--compare` measures zenoh beside iceoryx2: the bare queryable (the
+/// zenoh floor) and the round trip through cliffd, every response of it verified.
+#[cfg(feature = "zenoh")]
+#[test]
+fn bench_compare_over_zenoh_adds_the_zenoh_floor_and_cliffd_over_zenoh() {
+    let ns = Namespace::new("benchcmpz");
+    let endpoint = "tcp/127.0.0.1:27495";
+    let _daemon = Daemon::start(&ns, &["--zenoh", endpoint]);
+    let dir = std::env::temp_dir().join(format!("cliff-bench-compare-z-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let out = bench(
+        &ns,
+        &[
+            "--compare",
+            "--zenoh",
+            endpoint,
+            "--clients",
+            "1",
+            "--requests",
+            "200",
+            "--warmup",
+            "20",
+            "--wait",
+            "block",
+            "--out",
+            dir.to_str().unwrap(),
+        ],
+    );
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{stdout}\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("report.json")).unwrap()).unwrap();
+    let runs = v["runs"].as_array().unwrap();
+    for (kind, transport) in [
+        ("prediction", None),
+        ("floor", Some("iceoryx2")),
+        ("full", Some("iceoryx2")),
+        ("floor", Some("zenoh")),
+        ("full", Some("zenoh")),
+    ] {
+        let r = runs
+            .iter()
+            .find(|r| r["kind"] == kind && transport.is_none_or(|t| r["transport"] == t))
+            .unwrap_or_else(|| panic!("no {kind} run over {transport:?} in {v}"));
+        assert_eq!(r["completed"].as_u64(), Some(200), "{r}");
+        assert_eq!(r["errors"], 0, "{r}");
+        let ps = ["p50_us", "p90_us", "p99_us", "p999_us", "max_us"]
+            .map(|k| r[k].as_f64().unwrap_or(f64::NAN));
+        assert!(ps[0] > 0.0 && ps.windows(2).all(|w| w[0] <= w[1]), "{r}");
+        if kind == "full" {
+            assert_eq!(r["mismatches"], 0, "{r}");
+        }
+    }
+    let breakdown = v["breakdown"].as_array().unwrap();
+    assert!(breakdown.iter().any(|b| b["transport"] == "zenoh"), "{v}");
+    let md = std::fs::read_to_string(dir.join("report.md")).unwrap();
+    for s in ["zenoh floor (echo)", "zenoh via cliffd"] {
+        assert!(md.contains(s), "{s} in\n{md}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
