@@ -230,8 +230,9 @@ struct Args {
 
     /// How much lower than the daemon's own the CPU priority of zenoh's threads is (a
     /// Linux nice increment, 0 to 19). While the serving loop has work it gets the CPU
-    /// first, so a remote client flooding the daemon with large messages slows itself
-    /// down rather than the other clients. 0 runs zenoh at the daemon's priority.
+    /// first, so a remote client flooding the daemon with large messages delays local
+    /// clients less (other remote clients share zenoh's threads with it, and wait
+    /// more). 0 runs zenoh at the daemon's priority.
     #[cfg(feature = "zenoh")]
     #[arg(long, value_name = "N", default_value_t = cliff_service::zenoh::DEFAULT_NICE,
           value_parser = clap::value_parser!(i32).range(0..=19))]

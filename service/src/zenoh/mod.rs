@@ -91,8 +91,8 @@ pub struct ZenohSettings {
     /// How much lower than the daemon's own the CPU priority of zenoh's threads is: a
     /// Linux nice increment from 0 (the same) to [`MAX_NICE`], default [`DEFAULT_NICE`].
     /// The serving loop then gets the CPU before zenoh's receive threads, so a remote
-    /// client flooding the daemon with large messages slows itself down more than the
-    /// other clients (`priority.rs`).
+    /// client flooding the daemon with large messages delays local clients less; other
+    /// remote clients share zenoh's threads with it (`priority.rs`).
     pub nice: i32,
 }
 
