@@ -71,6 +71,7 @@ mod options;
 mod prediction;
 pub mod protocol;
 mod request;
+mod wakeups;
 pub mod wire;
 #[cfg(feature = "zenoh")]
 pub mod zenoh;
@@ -89,3 +90,4 @@ pub use protocol::{
     PROTOCOL_VERSION, Rejection, RequestHeader, ResponseHeader, Status,
 };
 pub use request::Request;
+pub use wakeups::Wakeups;

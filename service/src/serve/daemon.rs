@@ -3,6 +3,7 @@
 //! loop), `accept.rs` (requests in), `respond.rs` (responses out), `reload.rs` and
 //! `old_clients.rs`.
 
+use cliff_client::Wakeups;
 use cliff_client::protocol::{self, Observation, PROTOCOL_VERSION, RequestHeader, ResponseHeader};
 use cliff_client::{PredictService, legacy, request_event_name, response_event_name};
 use iceoryx2::port::listener::Listener;
@@ -18,7 +19,6 @@ use super::output::Out;
 use super::output::Remote;
 use super::ports::{Active, LegacyPort, LegacyService, Port};
 use super::stats::Stats;
-use super::wakeups::Wakeups;
 
 /// The prediction daemon: maps, iceoryx2 ports and the scheduler.
 pub struct Daemon {
@@ -195,10 +195,7 @@ impl Daemon {
             server,
             legacy_server,
             wake,
-            wakeups: Wakeups {
-                notifier,
-                keys: Vec::with_capacity(clients * 2),
-            },
+            wakeups: Wakeups::new(notifier, clients * 2),
             service,
             _legacy_service: legacy_service,
             _wake_service: wake_service,
@@ -321,7 +318,7 @@ impl Daemon {
                 failed = state.failed_cleanups,
                 "removed resources of dead processes"
             );
-            self.wakeups.keys.clear();
+            self.wakeups.forget();
         }
     }
 }

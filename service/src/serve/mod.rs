@@ -14,7 +14,6 @@
 //! * `old_clients.rs`: the `bad-version` answers to clients of protocol version 1;
 //! * `ports.rs`: the iceoryx2 port and request types;
 //! * `output.rs`: where a prediction goes (a shared-memory response or a zenoh reply);
-//! * `wakeups.rs`: waking clients that sleep on the response event;
 //! * `stats.rs`: the daemon's counters, [`Stats`].
 
 mod accept;
@@ -27,7 +26,6 @@ mod reload;
 mod respond;
 mod run;
 mod stats;
-mod wakeups;
 
 pub use daemon::Daemon;
 pub use stats::Stats;

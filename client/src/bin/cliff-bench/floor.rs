@@ -21,9 +21,8 @@ use cliff_client::protocol::{
     self, FLAG_SCORES, Observation, PROTOCOL_VERSION, RequestHeader, ResponseHeader, Status,
     payload_words,
 };
-use cliff_client::{iceoryx_config, request_event_name, response_event_name};
+use cliff_client::{Wakeups, iceoryx_config, request_event_name, response_event_name};
 use iceoryx2::port::listener::ListenerWaitError;
-use iceoryx2::port::notifier::{ListenerKey, Notifier};
 use iceoryx2::prelude::*;
 
 use crate::args::{Args, Target};
@@ -198,48 +197,6 @@ impl Drop for FloorServer {
     }
 }
 
-/// Wakes the client that sent a request, when it sleeps on the response event (the
-/// listener it named in the request).
-struct Wakeups {
-    notifier: Notifier<ipc::Service>,
-    known: Vec<(u128, ListenerKey)>,
-}
-
-impl Wakeups {
-    fn notify(&mut self, h: &RequestHeader) {
-        let id = (h.listener_id[0] as u128) | ((h.listener_id[1] as u128) << 64);
-        if id == 0 {
-            return;
-        }
-        if let Some(i) = self.known.iter().position(|(l, _)| *l == id) {
-            if self
-                .notifier
-                .notify_single_listener(&self.known[i].1)
-                .is_ok()
-            {
-                return;
-            }
-            self.known.swap_remove(i);
-        }
-        let mut found = None;
-        self.notifier.for_each_listener(|m, d| {
-            if d.listener_id.value() == id {
-                let _ = m.notify();
-                found = Some(m.listener_key());
-                CallbackProgression::Stop
-            } else {
-                CallbackProgression::Continue
-            }
-        });
-        if let Some(key) = found {
-            if self.known.len() >= 256 {
-                self.known.clear();
-            }
-            self.known.push((id, key));
-        }
-    }
-}
-
 /// The hidden `--serve-floor` mode: serve until standard input closes.
 pub(crate) fn serve(a: &Args, shape: &str) -> Result<(), String> {
     let shape = Shape::parse(shape)?;
@@ -292,13 +249,13 @@ pub(crate) fn serve(a: &Args, shape: &str) -> Result<(), String> {
         .listener_builder()
         .create()
         .map_err(|e| ipc_err("cannot create the request listener", &e))?;
-    let mut wakeups = Wakeups {
-        notifier: response_events
+    let mut wakeups = Wakeups::new(
+        response_events
             .notifier_builder()
             .create()
             .map_err(|e| ipc_err("cannot create the response notifier", &e))?,
-        known: Vec::with_capacity(256),
-    };
+        256,
+    );
     let payload = shape.payload();
 
     #[cfg(feature = "zenoh")]
