@@ -33,7 +33,10 @@ pub struct Request {
 }
 
 impl Request {
-    /// A request against the map `map` with `params` and no agents yet.
+    /// A request against the map `map` with `params` and no agents yet. On a learning
+    /// daemon (`cliffd --learn`) `map` may name a version: `NAME@VERSION`, `NAME@0` the
+    /// map as loaded (as [`base_map`](Self::base_map)); every response says which version
+    /// answered ([`Prediction::map_version`](crate::Prediction::map_version)).
     pub fn new(map: &str, params: &Params) -> Result<Self, Error> {
         let mut header = RequestHeader::from_params(params);
         header.set_map_name(map).map_err(Error::InvalidRequest)?;
@@ -153,7 +156,7 @@ impl Request {
         self.header.seed = seed;
     }
 
-    /// Change the map.
+    /// Change the map (or its version: `NAME@VERSION`, as in [`new`](Self::new)).
     pub fn set_map(&mut self, map: &str) -> Result<(), Error> {
         self.header.set_map_name(map).map_err(Error::InvalidRequest)
     }

@@ -121,7 +121,9 @@ struct Args {
     /// Learn this map from the observations clients send (repeatable; off by default):
     /// a background thread folds tracked people into it with the online update and
     /// swaps in a new version every --learn-every-rows rows or --learn-every-s seconds
-    /// (docs/learning.md).
+    /// (docs/learning.md). A time-of-day set learns each row into the slice of its time;
+    /// its all-day map stays as loaded. Clients may ask for the map as loaded (NAME@0)
+    /// or a recent version (NAME@VERSION).
     #[arg(long = "learn", value_name = "NAME")]
     learn: Vec<String>,
 
@@ -138,6 +140,11 @@ struct Args {
     /// A new learned version once the oldest waiting row has waited this long.
     #[arg(long, value_name = "SECONDS", default_value_t = LearnSettings::default().every.as_secs_f64())]
     learn_every_s: f64,
+
+    /// Learned versions kept in memory before the one served, for clients that ask for
+    /// one by number (NAME@VERSION; older ones are answered unknown-version).
+    #[arg(long, value_name = "VERSIONS", default_value_t = LearnSettings::default().keep_versions)]
+    learn_keep_versions: usize,
 
     /// Seconds between snapshots of the learned maps.
     #[arg(long, value_name = "SECONDS", default_value_t = LearnSettings::default().snapshot_every.as_secs_f64())]
@@ -325,6 +332,7 @@ fn run() -> Result<ExitCode, String> {
             },
             max_observe_rows: args.max_observe_rows,
             every_rows: args.learn_every_rows,
+            keep_versions: args.learn_keep_versions,
             every: seconds(args.learn_every_s, "--learn-every-s")?,
             snapshot_every: seconds(args.snapshot_every_s, "--snapshot-every-s")?,
             decay: args.learn_decay,

@@ -14,9 +14,10 @@
 //! * a reload runs on its own thread, catches panics, and keeps the old map of any file
 //!   that fails;
 //! * a time-of-day map set (`cliff map build --slice`) is served whole: each request
-//!   runs on the map of the time of day it asks for ([`map_for_time`]); every map of
+//!   runs on the map of the time of day it asks for ([`map_for_request`]); every map of
 //!   the set gets the pinned tables, and the set shares the table budget.
 
+use std::collections::VecDeque;
 use std::panic::{AssertUnwindSafe, catch_unwind};
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -44,9 +45,22 @@ pub(crate) struct MapEntry {
     /// version swapped in ([`Registry::swap_learned`]).
     pub version: u32,
     /// The set as loaded from the file (or the built-in scene), which a request may pin
-    /// ([`FLAG_BASE_MAP`](cliff_client::protocol::FLAG_BASE_MAP)); `set` is this set until a
-    /// learned version replaces it.
+    /// ([`FLAG_BASE_MAP`](cliff_client::protocol::FLAG_BASE_MAP), or the name `NAME@0`);
+    /// `set` is this set until a learned version replaces it.
     pub base: MapSet,
+    /// The learned versions served before `version`, newest first, that a request may
+    /// still ask for by name (`NAME@VERSION`): at most the `keep` of
+    /// [`Registry::swap_learned`].
+    pub kept: VecDeque<(u32, MapSet)>,
+}
+
+/// Which version of a map a request asks for.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Pick {
+    /// The version served now (the map name alone).
+    Served,
+    /// A version by number (`NAME@VERSION`; 0 and the base-map flag: the map as loaded).
+    Version(u32),
 }
 
 impl MapEntry {
@@ -58,35 +72,55 @@ impl MapEntry {
     }
 }
 
-/// The map a request on `entry` runs on, for the time of day it asks for (`when`:
-/// [`RequestHeader::time_mode`] and [`RequestHeader::time`], validated): the slice of
-/// the entry's time-of-day set that holds `t` for [`MapTime::At`]`(t)`, the one that
-/// holds the daemon's wall clock (unix time, read as the request is accepted) for
-/// [`MapTime::Now`], and the all-day map for [`MapTime::AllDay`]. A file of one map
-/// gives that map whatever `when` says. The one place where the daemon picks a
-/// request's map; the neighbour table asked for ([`Registry::want_table`]) then belongs
-/// to the map picked.
+/// The set of version `pick` of `entry` and its number; `None` for a version the entry
+/// does not hold (not learned yet, or older than the versions kept).
+pub(crate) fn set_for(entry: &MapEntry, pick: Pick) -> Option<(&MapSet, u32)> {
+    match pick {
+        Pick::Served => Some((&entry.set, entry.version)),
+        Pick::Version(v) if v == entry.version => Some((&entry.set, v)),
+        Pick::Version(0) => Some((&entry.base, 0)),
+        Pick::Version(v) => entry
+            .kept
+            .iter()
+            .find(|(k, _)| *k == v)
+            .map(|(_, set)| (set, v)),
+    }
+}
+
+/// The map a request on `entry` runs on, and its version's number: in the set of
+/// version `pick` (the version served now, the map as loaded, or a learned version kept;
+/// `None` for a version the entry does not hold, [`set_for`]), the map of the time of day
+/// the request asks for (`when`: [`RequestHeader::time_mode`] and
+/// [`RequestHeader::time`], validated): the slice that holds `t` for
+/// [`MapTime::At`]`(t)`, the one that holds the daemon's wall clock (unix time, read as
+/// the request is accepted) for [`MapTime::Now`], and the all-day map for
+/// [`MapTime::AllDay`]. A file of one map gives that map whatever `when` says. The one
+/// place where the daemon picks a request's map; the neighbour table asked for
+/// ([`Registry::want_table`]) then belongs to the map picked.
 ///
 /// [`RequestHeader::time_mode`]: cliff_client::RequestHeader::time_mode
 /// [`RequestHeader::time`]: cliff_client::RequestHeader::time
-pub(crate) fn map_for_time(entry: &MapEntry, when: MapTime) -> &Arc<CliffMap> {
-    if !entry.set.is_sliced() {
-        return &entry.map;
-    }
-    // the rule in-process callers use too
-    when.map_in(&entry.set)
+pub(crate) fn map_for_request(
+    entry: &MapEntry,
+    when: MapTime,
+    pick: Pick,
+) -> Option<(&Arc<CliffMap>, u32)> {
+    let (set, version) = set_for(entry, pick)?;
+    Some((map_in(set, when), version))
 }
 
-/// [`map_for_time`] on the map as loaded when `base` is set (a request that pins the base
-/// map of a learning daemon), else on the version served now.
-pub(crate) fn map_for_request(entry: &MapEntry, when: MapTime, base: bool) -> &Arc<CliffMap> {
-    if !base {
-        return map_for_time(entry, when);
+/// [`map_for_request`] on the version served now (which an entry always holds).
+pub(crate) fn served_map(entry: &MapEntry, when: MapTime) -> (&Arc<CliffMap>, u32) {
+    (map_in(&entry.set, when), entry.version)
+}
+
+fn map_in(set: &MapSet, when: MapTime) -> &Arc<CliffMap> {
+    if set.is_sliced() {
+        // the rule in-process callers use too
+        when.map_in(set)
+    } else {
+        set.all_day()
     }
-    if !entry.base.is_sliced() {
-        return entry.base.all_day();
-    }
-    when.map_in(&entry.base)
 }
 
 /// How maps are prepared: the radius limit, the table budget and the pinned radii.
@@ -212,6 +246,7 @@ impl Registry {
                 set,
                 max_radius,
                 version: 0,
+                kept: VecDeque::new(),
             });
         }
         Ok(Self {
@@ -231,6 +266,31 @@ impl Registry {
     #[inline]
     pub fn find(&self, wire: &[u8; MAP_NAME_BYTES]) -> Option<usize> {
         self.entries.iter().position(|m| &m.wire == wire)
+    }
+
+    /// The map a request's wire name names and the version it asks for: `NAME` (the
+    /// version served now) or `NAME@VERSION` (`VERSION` in decimal digits); `None` when no
+    /// served map has that name. (Served names never hold `@`.)
+    #[inline]
+    pub fn find_pick(&self, wire: &[u8; MAP_NAME_BYTES]) -> Option<(usize, Pick)> {
+        if let Some(i) = self.find(wire) {
+            return Some((i, Pick::Served));
+        }
+        let len = wire.iter().position(|&b| b == 0).unwrap_or(MAP_NAME_BYTES);
+        let name = &wire[..len];
+        let at = name.iter().rposition(|&b| b == b'@')?;
+        let digits = &name[at + 1..];
+        if digits.is_empty() || digits.len() > 10 || !digits.iter().all(u8::is_ascii_digit) {
+            return None;
+        }
+        let version = digits.iter().try_fold(0u32, |v, &d| {
+            v.checked_mul(10)?.checked_add((d - b'0') as u32)
+        })?;
+        let i = self
+            .entries
+            .iter()
+            .position(|m| m.name.as_bytes() == &name[..at])?;
+        Some((i, Pick::Version(version)))
     }
 
     /// Ask the background thread for the table of `radius` (already within the map's
@@ -280,12 +340,18 @@ impl Registry {
         Some((generation, first_error))
     }
 
-    /// Serve `map` as version `version` of entry `i` (a learned map: one map, no slices).
-    /// Requests in flight keep the version they started on (they hold its `Arc`).
-    pub fn swap_learned(&mut self, i: usize, map: Arc<CliffMap>, version: u32) {
+    /// Serve `set` as version `version` of entry `i` (a learned version: one map, or a
+    /// time-of-day set whose slices learned), and keep the `keep` learned versions before
+    /// it for requests that ask for them by number. Requests in flight keep the version
+    /// they started on (they hold its maps' `Arc`s).
+    pub fn swap_learned(&mut self, i: usize, set: MapSet, version: u32, keep: usize) {
         let e = &mut self.entries[i];
-        e.set = MapSet::single_arc(Arc::clone(&map));
-        e.map = map;
+        let old = std::mem::replace(&mut e.set, set);
+        if e.version > 0 && keep > 0 {
+            e.kept.push_front((e.version, old));
+        }
+        e.kept.truncate(keep);
+        e.map = Arc::clone(e.set.all_day());
         e.version = version;
     }
 

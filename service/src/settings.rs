@@ -22,6 +22,11 @@ impl std::str::FromStr for MapSpec {
             .split_once('=')
             .ok_or_else(|| format!("'{s}' is not NAME=PATH (for example hall=maps/hall.csv)"))?;
         protocol::encode_map_name(name)?;
+        if name.contains('@') {
+            return Err(format!(
+                "map name '{name}' holds '@', which clients use to ask for a learned version (NAME@VERSION)"
+            ));
+        }
         if path.is_empty() {
             return Err(format!("map '{name}' has an empty path"));
         }
@@ -220,6 +225,12 @@ mod tests {
         );
         let long = format!("{}=x.csv", "n".repeat(64));
         assert!(long.parse::<MapSpec>().is_err());
+        assert!(
+            "hall@2=x.csv"
+                .parse::<MapSpec>()
+                .unwrap_err()
+                .contains("NAME@VERSION")
+        );
     }
 
     #[test]

@@ -248,7 +248,7 @@ pub extern "C" fn cliff_last_error() -> *const c_char {
 /// The name of a status code (`"unknown-map"`, ...); a static string.
 #[unsafe(no_mangle)]
 pub extern "C" fn cliff_status_name(status: u32) -> *const c_char {
-    const NAMES: [&CStr; 21] = [
+    const NAMES: [&CStr; 22] = [
         c"ok",
         c"bad-version",
         c"unknown-map",
@@ -270,6 +270,7 @@ pub extern "C" fn cliff_status_name(status: u32) -> *const c_char {
         c"too-many-sessions",
         c"over-budget",
         c"not-learning",
+        c"unknown-version",
     ];
     match Status::from_code(status) {
         Some(s) => NAMES[s.code() as usize].as_ptr(),

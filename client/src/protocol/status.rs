@@ -65,6 +65,10 @@ pub enum Status {
     /// An observe request names a map the daemon serves but does not learn
     /// (`cliffd --learn NAME`).
     NotLearning = 20,
+    /// The map name asks for a version (`NAME@VERSION`) the daemon does not hold: a
+    /// learning daemon keeps the map as loaded (version 0), the version served and the
+    /// few before it (`cliffd --learn-keep-versions`); `limit` holds the version served.
+    UnknownVersion = 21,
 }
 
 impl Status {
@@ -93,6 +97,7 @@ impl Status {
             18 => TooManySessions,
             19 => OverBudget,
             20 => NotLearning,
+            21 => UnknownVersion,
             _ => return None,
         })
     }
@@ -127,6 +132,7 @@ impl Status {
             TooManySessions => "too-many-sessions",
             OverBudget => "over-budget",
             NotLearning => "not-learning",
+            UnknownVersion => "unknown-version",
         }
     }
 }
@@ -337,11 +343,11 @@ mod tests {
             assert_eq!(Field::from_code(c) as u32, c);
         }
         assert_eq!(Field::from_code(24), Field::None);
-        for c in 0..21 {
+        for c in 0..22 {
             let s = Status::from_code(c).unwrap();
             assert_eq!(s.code(), c);
         }
-        assert_eq!(Status::from_code(21), None);
+        assert_eq!(Status::from_code(22), None);
         let r = Rejection::over(Status::Busy, Field::None, 2);
         assert_eq!(r.to_string(), "busy, limit 2");
         let r = Rejection::at(Status::NonFinite, Field::Time, 3, 7);

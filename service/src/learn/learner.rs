@@ -8,9 +8,9 @@ use std::sync::mpsc::{Receiver, RecvTimeoutError};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
-use cliff::map::CliffMap;
 use cliff::map::build::Observation as MapObservation;
 use cliff::map::update::{OnlineMap, UpdateParams};
+use cliff::map::{CliffMap, MapSet, SetParts};
 use tracing::{info, warn};
 
 use super::guard;
@@ -22,7 +22,7 @@ use crate::registry::TablePolicy;
 /// A version of a learned map, ready to be served.
 pub(crate) struct Published {
     pub version: u32,
-    pub map: Arc<CliffMap>,
+    pub set: MapSet,
 }
 
 /// What the learner counted (read by the serving loop's log and by tests).
@@ -48,24 +48,138 @@ pub(crate) struct Shared {
     pub counters: LearnerCounters,
 }
 
-/// One learned map on the learner thread.
-struct Learned {
-    name: String,
+/// One part of a learned map that learns by itself: the map of a set without slices, or
+/// one slice of a time-of-day set (the all-day map of a set does not learn).
+struct Part {
     /// `None` until the first update when the count scale comes from the first batch.
     online: Option<OnlineMap>,
-    /// The map served now (what `online` last produced, or the start map).
+    /// The part's map served now (what `online` last produced, or the start map).
     current: Arc<CliffMap>,
-    version: u32,
     /// Rows waiting for the next update, by client and track (for the guards' caps).
     waiting: HashMap<(ClientKey, u32), Vec<MapObservation>>,
     waiting_rows: usize,
     oldest: Option<Instant>,
     held: guard::HeldSample,
+    /// When the part last moved (a version published), or the learner started.
+    moved: Instant,
+}
+
+/// One learned map on the learner thread.
+struct Learned {
+    name: String,
+    /// The set served now (the newest version).
+    set: MapSet,
+    /// The parts that learn: one (index 0) for a set without slices, one per slice for a
+    /// time-of-day set, each made when its first row arrives.
+    parts: Vec<Option<Part>>,
+    /// The count scale each part starts with (from the snapshot resumed, else the
+    /// setting; `None`: from its first batch).
+    start_scales: Vec<Option<f64>>,
+    version: u32,
     /// Rows learned since the start map.
     rows: u64,
-    /// When the map last moved (a version published), or the learner started.
-    moved: Instant,
     saved_version: u32,
+}
+
+impl Learned {
+    /// The part a row at `time` (the client's clock) belongs to: the slice of its time of
+    /// day for a time-of-day set, else the one part.
+    fn part_of(&self, time: f64) -> Option<usize> {
+        if self.set.is_sliced() {
+            self.set.slice_index(time)
+        } else {
+            Some(0)
+        }
+    }
+
+    /// Part `p`, made on first use from the map it stands for now (a slice without a map
+    /// of its own starts from a copy of the all-day map).
+    fn part(&mut self, p: usize, settings: &LearnSettings) -> Result<&mut Part, String> {
+        if self.parts[p].is_none() {
+            let current = if self.set.is_sliced() {
+                Arc::clone(self.set.slice_map(p).ok_or("no such slice")?)
+            } else {
+                Arc::clone(self.set.all_day())
+            };
+            let online = match self.start_scales[p] {
+                Some(c) => Some(
+                    OnlineMap::from_map(&current, c, update_params(settings))
+                        .map_err(|e| format!("map '{}': cannot learn it: {e}", self.name))?,
+                ),
+                None => None,
+            };
+            self.parts[p] = Some(Part {
+                online,
+                current,
+                waiting: HashMap::new(),
+                waiting_rows: 0,
+                oldest: None,
+                held: guard::HeldSample::new(settings.guards.held_rows, settings.guards.held_every),
+                moved: Instant::now(),
+            });
+        }
+        Ok(self.parts[p].as_mut().expect("made above"))
+    }
+
+    /// Give part `p` a segment of its rows: held out, or waiting for the next update.
+    fn offer(&mut self, p: usize, s: Segment, settings: &LearnSettings) {
+        let name = self.name.clone();
+        let part = match self.part(p, settings) {
+            Ok(part) => part,
+            Err(e) => {
+                warn!(map = %name, slice = p, "rows not learned: {e}");
+                return;
+            }
+        };
+        // some segments are held out to judge new versions, never learned
+        if let Some(s) = part.held.offer(s) {
+            part.waiting_rows += s.observations.len();
+            part.waiting
+                .entry((s.client, s.track))
+                .or_default()
+                .extend(s.observations);
+            part.oldest.get_or_insert_with(Instant::now);
+        }
+    }
+
+    /// The count scale of every part (`None` where unknown yet), as saved.
+    fn scales(&self) -> Vec<Option<f64>> {
+        self.parts
+            .iter()
+            .zip(&self.start_scales)
+            .map(|(p, s)| {
+                p.as_ref()
+                    .and_then(|p| p.online.as_ref().map(|o| o.count_scale()))
+                    .or(*s)
+            })
+            .collect()
+    }
+}
+
+/// `set` with part `p` replaced by `map`: the map of a set without slices, or slice `p`.
+fn with_part(set: &MapSet, p: usize, map: Arc<CliffMap>) -> Result<MapSet, String> {
+    let parts = if set.is_sliced() {
+        let mut slices = set.slices().to_vec();
+        slices[p] = Some(map);
+        SetParts {
+            all_day: Arc::clone(set.all_day()),
+            slices,
+            slice_length: set.slice_length(),
+            clock_offset: set.clock_offset(),
+            smoothing: set.smoothing(),
+            observations: set.observations().to_vec(),
+        }
+    } else {
+        SetParts {
+            all_day: map,
+            slices: Vec::new(),
+            slice_length: set.slice_length(),
+            clock_offset: set.clock_offset(),
+            smoothing: set.smoothing(),
+            observations: Vec::new(),
+        }
+    };
+    MapSet::from_parts(parts).map_err(|e| e.to_string())
 }
 
 /// The learner thread's state.
@@ -96,14 +210,14 @@ fn move_bound(settings: &LearnSettings, since: Duration) -> Option<f64> {
     (bound < 1.0).then_some(bound.max(1e-9))
 }
 
-/// Where a learned map starts: the map and its version, the rows learned so far and the
-/// count scale (when known).
+/// Where a learned map starts: the set and its version, the rows learned so far and the
+/// count scale of each part (when known: empty for none).
 pub(crate) struct Start {
     pub name: String,
-    pub map: Arc<CliffMap>,
+    pub set: MapSet,
     pub version: u32,
     pub rows: u64,
-    pub count_scale: Option<f64>,
+    pub count_scales: Vec<Option<f64>>,
 }
 
 impl Learner {
@@ -119,30 +233,36 @@ impl Learner {
             .thread_name(|_| "cliffd-learn".into())
             .build()
             .map_err(|e| format!("cannot start the learner's thread pool: {e}"))?;
-        let params = update_params(&settings);
         let mut maps = Vec::new();
         for s in starts {
-            let scale = s.count_scale.or(settings.count_scale);
-            let online = match scale {
-                Some(c) => Some(
-                    OnlineMap::from_map(&s.map, c, params)
-                        .map_err(|e| format!("map '{}': cannot learn it: {e}", s.name))?,
-                ),
-                None => None,
+            let n = if s.set.is_sliced() {
+                s.set.slices().len()
+            } else {
+                1
             };
-            maps.push(Learned {
+            let start_scales = (0..n)
+                .map(|p| {
+                    s.count_scales
+                        .get(p)
+                        .copied()
+                        .flatten()
+                        .or(settings.count_scale)
+                })
+                .collect();
+            let mut m = Learned {
                 name: s.name,
-                online,
-                current: s.map,
+                set: s.set,
+                parts: (0..n).map(|_| None).collect(),
+                start_scales,
                 version: s.version,
-                waiting: HashMap::new(),
-                waiting_rows: 0,
-                oldest: None,
-                held: guard::HeldSample::new(settings.guards.held_rows, settings.guards.held_every),
                 rows: s.rows,
-                moved: Instant::now(),
                 saved_version: s.version,
-            });
+            };
+            // a set without slices learns from the start: its settings are checked now
+            if n == 1 {
+                m.part(0, &settings)?;
+            }
+            maps.push(m);
         }
         Ok(Learner {
             next_snapshot: Instant::now() + settings.snapshot_every,
@@ -171,12 +291,16 @@ impl Learner {
             }
             let now = Instant::now();
             for i in 0..self.maps.len() {
-                let m = &self.maps[i];
-                let due = m.waiting_rows >= self.settings.every_rows
-                    || m.oldest
-                        .is_some_and(|t| now.duration_since(t) >= self.settings.every);
-                if due {
-                    self.learn(i);
+                for p in 0..self.maps[i].parts.len() {
+                    let due = self.maps[i].parts[p].as_ref().is_some_and(|part| {
+                        part.waiting_rows >= self.settings.every_rows
+                            || part
+                                .oldest
+                                .is_some_and(|t| now.duration_since(t) >= self.settings.every)
+                    });
+                    if due {
+                        self.learn(i, p);
+                    }
                 }
             }
             if now >= self.next_snapshot {
@@ -185,108 +309,142 @@ impl Learner {
             }
         }
         for i in 0..self.maps.len() {
-            if self.maps[i].waiting_rows > 0 {
-                self.learn(i);
+            for p in 0..self.maps[i].parts.len() {
+                if self.maps[i].parts[p]
+                    .as_ref()
+                    .is_some_and(|part| part.waiting_rows > 0)
+                {
+                    self.learn(i, p);
+                }
             }
         }
         self.snapshot_all();
     }
 
+    /// Take a segment: its rows go to the part of their time (a time-of-day set's rows
+    /// to the slice of each row's time of day), where they wait for the next update or
+    /// are held out to judge new versions.
     fn add(&mut self, s: Segment) {
         let Some(m) = self.maps.get_mut(s.map) else {
             return;
         };
-        // some segments are held out to judge new versions, never learned
-        if let Some(s) = m.held.offer(s) {
-            m.waiting_rows += s.observations.len();
-            m.waiting
-                .entry((s.client, s.track))
-                .or_default()
-                .extend(s.observations);
-            m.oldest.get_or_insert_with(Instant::now);
+        if !m.set.is_sliced() {
+            m.offer(0, s, &self.settings);
+            return;
+        }
+        // consecutive rows of one slice stay one segment (a track rarely crosses a slice)
+        let mut rows = s.observations.into_iter().zip(s.times).peekable();
+        while let Some((o, t)) = rows.next() {
+            let Some(p) = m.part_of(t) else { continue };
+            let mut piece = Segment {
+                map: s.map,
+                client: s.client,
+                track: s.track,
+                observations: vec![o],
+                times: vec![t],
+            };
+            while let Some((o, t)) = rows.next_if(|&(_, t)| m.part_of(t) == Some(p)) {
+                piece.observations.push(o);
+                piece.times.push(t);
+            }
+            m.offer(p, piece, &self.settings);
         }
     }
 
-    /// Fold map `i`'s waiting rows into it, check the candidate on the held sample, and
-    /// publish it.
-    fn learn(&mut self, i: usize) {
+    /// Fold the waiting rows of part `p` of map `i` into it, check the candidate on the
+    /// part's held sample, and publish the set with it.
+    fn learn(&mut self, i: usize, p: usize) {
         let guards = self.settings.guards;
         let params = update_params(&self.settings);
         let fixed_scale = self.settings.count_scale;
         let m = &mut self.maps[i];
+        let sliced = m.set.is_sliced();
+        let Some(part) = m.parts[p].as_mut() else {
+            return;
+        };
         let mut by_client: HashMap<ClientKey, Vec<MapObservation>> = HashMap::new();
-        for ((client, _), rows) in std::mem::take(&mut m.waiting) {
+        for ((client, _), rows) in std::mem::take(&mut part.waiting) {
             by_client
                 .entry(client)
                 .or_default()
                 .extend(guard::thin(&rows, guards.track_rows));
         }
         let batch = guard::share_capped(by_client, guards.client_share, self.settings.every_rows);
-        let bound = move_bound(&self.settings, m.moved.elapsed());
-        m.waiting_rows = 0;
-        m.oldest = None;
+        let bound = move_bound(&self.settings, part.moved.elapsed());
+        part.waiting_rows = 0;
+        part.oldest = None;
         if batch.is_empty() {
             return;
         }
+        let name = &m.name;
+        let slice = sliced.then_some(p);
         let result = self.pool.install(|| -> Result<Option<CliffMap>, String> {
-            if m.online.is_none() {
+            if part.online.is_none() {
                 let mut online =
-                    OnlineMap::from_map(&m.current, fixed_scale.unwrap_or(1.0), params)
+                    OnlineMap::from_map(&part.current, fixed_scale.unwrap_or(1.0), params)
                         .map_err(|e| e.to_string())?;
                 let scale = online.busiest_node(&batch).map_err(|e| e.to_string())?;
                 online
                     .set_count_scale(scale.max(1) as f64)
                     .map_err(|e| e.to_string())?;
-                m.online = Some(online);
+                part.online = Some(online);
             }
-            let online = m.online.as_mut().expect("set above");
+            let online = part.online.as_mut().expect("set above");
             online.set_max_move(bound).map_err(|e| e.to_string())?;
             let before = online.clone();
             let report = online.update(&batch).map_err(|e| e.to_string())?;
             if report.damped > 0 {
                 info!(
-                    map = %m.name, locations = report.damped, bound = bound.unwrap_or(1.0),
+                    map = %name, ?slice, locations = report.damped, bound = bound.unwrap_or(1.0),
                     "update damped (--learn-move-per-min)"
                 );
             }
             let candidate = online.to_map().map_err(|e| e.to_string())?;
-            if let Some(why) = m
+            if let Some(why) = part
                 .held
-                .refuses(&m.current, &candidate, guards.max_score_drop)
+                .refuses(&part.current, &candidate, guards.max_score_drop)
             {
-                warn!(map = %m.name, "learned version refused: {why}");
+                warn!(map = %name, ?slice, "learned version refused: {why}");
                 *online = before;
                 return Ok(None);
             }
             Ok(Some(candidate))
         });
         let candidate = match result {
-            Ok(Some(c)) => c,
+            Ok(Some(c)) => Arc::new(c),
             Ok(None) => {
                 self.shared.counters.refused.fetch_add(1, Ordering::Relaxed);
                 return;
             }
             Err(e) => {
-                warn!(map = %m.name, rows = batch.len(), "learning failed: {e}");
+                warn!(map = %m.name, ?slice, rows = batch.len(), "learning failed: {e}");
                 return;
             }
         };
-        let map = Arc::new(candidate);
-        self.policy
-            .prepare(&m.name, &cliff::map::MapSet::single_arc(Arc::clone(&map)));
+        let set = match with_part(&m.set, p, Arc::clone(&candidate)) {
+            Ok(set) => set,
+            Err(e) => {
+                warn!(map = %m.name, ?slice, "learned version not made: {e}");
+                return;
+            }
+        };
+        // the new map gets its tables here; the others have theirs
+        self.policy.prepare(&m.name, &set);
+        part.current = Arc::clone(&candidate);
+        part.moved = Instant::now();
+        m.set = set.clone();
         m.version += 1;
-        m.moved = Instant::now();
         m.rows += batch.len() as u64;
-        m.current = Arc::clone(&map);
         let c = &self.shared.counters;
         c.learned_rows
             .fetch_add(batch.len() as u64, Ordering::Relaxed);
         c.versions.fetch_add(1, Ordering::Relaxed);
         info!(
             map = %m.name,
+            ?slice,
             version = m.version,
             rows = batch.len(),
-            locations = map.locations().len(),
+            locations = candidate.locations().len(),
             "learned a new version"
         );
         let mut slot = self.shared.slots[i]
@@ -294,7 +452,7 @@ impl Learner {
             .unwrap_or_else(|p| p.into_inner());
         *slot = Some(Published {
             version: m.version,
-            map,
+            set,
         });
     }
 
@@ -309,9 +467,9 @@ impl Learner {
             let saved = Saved {
                 version: m.version,
                 rows: m.rows,
-                count_scale: m.online.as_ref().map(|o| o.count_scale()),
+                count_scales: m.scales(),
             };
-            match snapshots::write(&dir, &m.name, &m.current, &saved) {
+            match snapshots::write(&dir, &m.name, &m.set, &saved) {
                 Ok(path) => {
                     m.saved_version = m.version;
                     self.shared

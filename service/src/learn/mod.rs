@@ -72,6 +72,8 @@ pub(crate) struct Learning {
     /// The version served of each learned map.
     versions: Vec<u32>,
     max_observe_rows: u32,
+    /// Learned versions kept before the one served ([`LearnSettings::keep_versions`]).
+    keep_versions: usize,
     tx: Option<SyncSender<Segment>>,
     shared: Arc<Shared>,
     thread: Option<JoinHandle<()>>,
@@ -106,17 +108,13 @@ impl Learning {
                     "--learn {name}: a learned map's name may hold letters, digits, '-', '_' and '.' only"
                 )));
             }
-            if registry.entries()[i].set.is_sliced() {
-                return Err(StartError::Settings(format!(
-                    "--learn {name}: learning a time-of-day set is not supported; serve and learn one map"
-                )));
-            }
+            let served = registry.entries()[i].set.clone();
             let mut start = Start {
                 name: name.clone(),
-                map: Arc::clone(&registry.entries()[i].map),
+                set: served.clone(),
                 version: 0,
                 rows: 0,
-                count_scale: None,
+                count_scales: Vec::new(),
             };
             if let Some(dir) = &settings.dir {
                 let stale = snapshots::remove_temporaries(dir, name);
@@ -124,23 +122,22 @@ impl Learning {
                     info!(map = %name, files = stale, "removed temporary files of an interrupted snapshot");
                 }
                 let mut skipped = Vec::new();
-                let found = snapshots::newest(dir, name, &mut skipped);
+                let found = snapshots::newest(dir, name, |s| same_shape(&served, s), &mut skipped);
                 for s in skipped {
                     warn!(map = %name, "learned snapshot skipped: {s}");
                 }
-                if let Some((map, saved)) = found {
-                    let map = Arc::new(map);
-                    policy.prepare(name, &cliff::map::MapSet::single_arc(Arc::clone(&map)));
+                if let Some((set, saved)) = found {
+                    policy.prepare(name, &set);
                     info!(
                         map = %name, version = saved.version, rows = saved.rows,
-                        locations = map.locations().len(),
+                        locations = set.all_day().locations().len(), slices = set.slices().len(),
                         "resuming from the newest learned snapshot"
                     );
-                    registry.swap_learned(i, Arc::clone(&map), saved.version);
-                    start.map = map;
+                    registry.swap_learned(i, set.clone(), saved.version, settings.keep_versions);
+                    start.set = set;
                     start.version = saved.version;
                     start.rows = saved.rows;
-                    start.count_scale = saved.count_scale;
+                    start.count_scales = saved.count_scales;
                 }
             }
             versions.push(start.version);
@@ -164,6 +161,7 @@ impl Learning {
             entries,
             versions,
             max_observe_rows: settings.max_observe_rows,
+            keep_versions: settings.keep_versions,
             tx: Some(tx),
             shared,
             thread: Some(thread),
@@ -217,7 +215,7 @@ impl Learning {
                 continue; // the learner is publishing: next time
             };
             if let Some(p) = slot.take() {
-                registry.swap_learned(self.entries[i], p.map, p.version);
+                registry.swap_learned(self.entries[i], p.set, p.version, self.keep_versions);
                 self.versions[i] = p.version;
                 self.swapped += 1;
             }
@@ -260,6 +258,29 @@ impl Learning {
 impl Drop for Learning {
     fn drop(&mut self) {
         self.shutdown();
+    }
+}
+
+/// Whether a snapshot `found` can stand for the map `served` (as loaded from its file):
+/// both one map, or both time-of-day sets of the same slices and clock offset.
+fn same_shape(served: &cliff::map::MapSet, found: &cliff::map::MapSet) -> Result<(), String> {
+    let shape = |s: &cliff::map::MapSet| {
+        if s.is_sliced() {
+            format!(
+                "a time-of-day set of {} slices of {} s, clock offset {} s",
+                s.slices().len(),
+                s.slice_length(),
+                s.clock_offset()
+            )
+        } else {
+            "one map".to_string()
+        }
+    };
+    let (a, b) = (shape(served), shape(found));
+    if a == b {
+        Ok(())
+    } else {
+        Err(format!("it holds {b}, the map served is {a}"))
     }
 }
 

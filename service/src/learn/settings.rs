@@ -107,6 +107,9 @@ pub struct LearnSettings {
     pub count_scale: Option<f64>,
     /// Segments waiting for the learner at most (more are dropped and counted).
     pub queue: usize,
+    /// Learned versions kept in memory before the one served, for requests that ask for
+    /// a version by number (`NAME@VERSION`); the map as loaded is always kept.
+    pub keep_versions: usize,
     /// The guards between observations and the served map.
     pub guards: Guards,
 }
@@ -124,6 +127,7 @@ impl Default for LearnSettings {
             decay: 1.0,
             count_scale: None,
             queue: 4096,
+            keep_versions: 4,
             guards: Guards::default(),
         }
     }

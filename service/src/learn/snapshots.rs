@@ -4,25 +4,27 @@
 //! removed ([`write`], [`newest`]).
 //!
 //! Files of the map `NAME`, version `V`: `NAME.vV.cliff` (the map, a snapshot that
-//! `cliffd --map` and `cliff` read) and `NAME.vV.state` (a line of text: version, rows
-//! learned, count scale), both with `V` as 8 digits.
+//! `cliffd --map` and `cliff` read: one map, or a time-of-day set with its learned
+//! slices) and `NAME.vV.state` (a line of text: version, rows learned, the count scale of
+//! each part that learns, comma-separated: one for a map, one per slice for a set),
+//! both with `V` as 8 digits.
 
+use cliff::map::MapSet;
 use std::fs::{self, File};
 use std::io::Write;
 use std::path::{Path, PathBuf};
-use std::sync::Arc;
-
-use cliff::map::{CliffMap, MapSet};
 
 /// Snapshots kept per map (older ones are removed after a new one is written).
 pub const KEEP: usize = 3;
 
 /// What is saved beside a learned map.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, PartialEq)]
 pub(crate) struct Saved {
     pub version: u32,
     pub rows: u64,
-    pub count_scale: Option<f64>,
+    /// Per part that learns (one for a map, one per slice of a set): its count scale,
+    /// `None` when not known yet.
+    pub count_scales: Vec<Option<f64>>,
 }
 
 fn file(dir: &Path, name: &str, version: u32, ext: &str) -> PathBuf {
@@ -52,21 +54,30 @@ pub(crate) fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
 pub(crate) fn write(
     dir: &Path,
     name: &str,
-    map: &Arc<CliffMap>,
+    set: &MapSet,
     saved: &Saved,
 ) -> Result<PathBuf, String> {
     let err = |what: &str, p: &Path, e: std::io::Error| format!("{what} {}: {e}", p.display());
     fs::create_dir_all(dir).map_err(|e| err("cannot create", dir, e))?;
     let state = file(dir, name, saved.version, "state");
+    let scales: Vec<String> = saved
+        .count_scales
+        .iter()
+        .map(|c| c.map_or("-".to_string(), |c| c.to_string()))
+        .collect();
     let line = format!(
         "version {} rows {} count_scale {}\n",
         saved.version,
         saved.rows,
-        saved.count_scale.map_or("-".to_string(), |c| c.to_string())
+        if scales.is_empty() {
+            "-".to_string()
+        } else {
+            scales.join(",")
+        }
     );
     write_atomic(&state, line.as_bytes()).map_err(|e| err("cannot write", &state, e))?;
     let path = file(dir, name, saved.version, "cliff");
-    let bytes = MapSet::single_arc(Arc::clone(map)).to_snapshot_bytes();
+    let bytes = set.to_snapshot_bytes();
     write_atomic(&path, &bytes).map_err(|e| err("cannot write", &path, e))?;
     for old in versions(dir, name).into_iter().skip(KEEP) {
         for ext in ["cliff", "state"] {
@@ -112,19 +123,26 @@ pub(crate) fn remove_temporaries(dir: &Path, name: &str) -> usize {
         .count()
 }
 
-/// The newest version of `name` in `dir` that loads (its checksum and checks pass),
-/// with what was saved beside it; the files that failed, with why, in `skipped`.
+/// The newest version of `name` in `dir` that loads (its checksum and checks pass) and
+/// that `fits` (`Err`: why not, e.g. a snapshot of a map of another shape), with what was
+/// saved beside it; the files that failed, with why, in `skipped`.
 pub(crate) fn newest(
     dir: &Path,
     name: &str,
+    fits: impl Fn(&MapSet) -> Result<(), String>,
     skipped: &mut Vec<String>,
-) -> Option<(CliffMap, Saved)> {
+) -> Option<(MapSet, Saved)> {
     for v in versions(dir, name) {
         let path = file(dir, name, v, "cliff");
-        match cliff::map::read_snapshot(&path) {
-            Ok(map) => {
+        match MapSet::load(&path)
+            .map_err(|e| e.to_string())
+            .and_then(|set| {
+                fits(&set)?;
+                Ok(set)
+            }) {
+            Ok(set) => {
                 let saved = read_state(&file(dir, name, v, "state"), v);
-                return Some((map, saved));
+                return Some((set, saved));
             }
             Err(e) => skipped.push(format!("{}: {e}", path.display())),
         }
@@ -137,7 +155,7 @@ fn read_state(path: &Path, v: u32) -> Saved {
     let mut saved = Saved {
         version: v,
         rows: 0,
-        count_scale: None,
+        count_scales: Vec::new(),
     };
     let Ok(text) = fs::read_to_string(path) else {
         return saved;
@@ -147,10 +165,10 @@ fn read_state(path: &Path, v: u32) -> Saved {
         && version.parse() == Ok(v)
     {
         saved.rows = rows.parse().unwrap_or(0);
-        saved.count_scale = scale
-            .parse()
-            .ok()
-            .filter(|c: &f64| c.is_finite() && *c > 0.0);
+        saved.count_scales = scale
+            .split(',')
+            .map(|c| c.parse().ok().filter(|c: &f64| c.is_finite() && *c > 0.0))
+            .collect();
     }
     saved
 }
@@ -167,27 +185,35 @@ pub(crate) fn usable_name(name: &str) -> bool {
 
 #[cfg(test)]
 mod tests {
+    use std::sync::Arc;
+
+    use cliff::map::{CliffMap, SetParts};
+
     use super::*;
+
+    fn any(_: &MapSet) -> Result<(), String> {
+        Ok(())
+    }
 
     #[test]
     fn versions_are_written_kept_and_found_newest_first() {
         let dir = tempfile::tempdir().unwrap();
-        let map = Arc::new(CliffMap::demo());
+        let map = MapSet::single(CliffMap::demo());
         for v in 1..=5 {
             let saved = Saved {
                 version: v,
                 rows: 100 * v as u64,
-                count_scale: Some(40.5),
+                count_scales: vec![Some(40.5)],
             };
             write(dir.path(), "hall", &map, &saved).unwrap();
         }
         assert_eq!(versions(dir.path(), "hall"), vec![5, 4, 3]);
         let mut skipped = Vec::new();
-        let (back, saved) = newest(dir.path(), "hall", &mut skipped).unwrap();
-        assert_eq!(back.locations(), map.locations());
+        let (back, saved) = newest(dir.path(), "hall", any, &mut skipped).unwrap();
+        assert_eq!(back.all_day().locations(), map.all_day().locations());
         assert_eq!(
-            (saved.version, saved.rows, saved.count_scale),
-            (5, 500, Some(40.5))
+            (saved.version, saved.rows, saved.count_scales),
+            (5, 500, vec![Some(40.5)])
         );
         // a damaged newest file is skipped (checksum), the one before it is loaded
         let p = file(dir.path(), "hall", 5, "cliff");
@@ -195,13 +221,36 @@ mod tests {
         let mid = bytes.len() / 2;
         bytes[mid] ^= 0x40;
         fs::write(&p, bytes).unwrap();
-        let (_, saved) = newest(dir.path(), "hall", &mut skipped).unwrap();
+        let (_, saved) = newest(dir.path(), "hall", any, &mut skipped).unwrap();
         assert_eq!(saved.version, 4);
         assert_eq!(skipped.len(), 1);
         assert!(
             skipped[0].contains("hall.v00000005.cliff"),
             "{}",
             skipped[0]
+        );
+        // a snapshot that does not fit is skipped, with why
+        skipped.clear();
+        let (_, saved) = newest(
+            dir.path(),
+            "hall",
+            |s: &MapSet| (!s.is_sliced()).then_some(()).ok_or("sliced".into()),
+            &mut skipped,
+        )
+        .unwrap();
+        assert_eq!(saved.version, 4);
+        let none = newest(
+            dir.path(),
+            "hall",
+            |_: &MapSet| Err("a set of 24 slices expected".into()),
+            &mut skipped,
+        );
+        assert!(none.is_none());
+        assert!(
+            skipped
+                .iter()
+                .any(|s| s.contains("hall.v00000004.cliff: a set of 24 slices expected")),
+            "{skipped:?}"
         );
         // no temporary file is left behind
         let names: Vec<String> = fs::read_dir(dir.path())
@@ -210,5 +259,44 @@ mod tests {
             .collect();
         assert!(names.iter().all(|n| !n.ends_with(".tmp")), "{names:?}");
         assert!(usable_name("atc-1h") && !usable_name("../x") && !usable_name(".x"));
+    }
+
+    #[test]
+    fn a_time_of_day_set_is_saved_whole_with_a_count_scale_per_slice() {
+        let dir = tempfile::tempdir().unwrap();
+        let demo = Arc::new(CliffMap::demo());
+        let mut slices = vec![None; 24];
+        slices[10] = Some(Arc::clone(&demo));
+        let set = MapSet::from_parts(SetParts {
+            all_day: Arc::new(CliffMap::demo()),
+            slices,
+            slice_length: 3600.0,
+            clock_offset: 32400.0,
+            smoothing: None,
+            observations: Vec::new(),
+        })
+        .unwrap();
+        let mut scales = vec![None; 24];
+        scales[10] = Some(12.0);
+        scales[3] = Some(0.5);
+        let saved = Saved {
+            version: 7,
+            rows: 1234,
+            count_scales: scales.clone(),
+        };
+        write(dir.path(), "atc", &set, &saved).unwrap();
+        let (back, read) = newest(dir.path(), "atc", any, &mut Vec::new()).unwrap();
+        assert_eq!(read, saved);
+        assert_eq!(back.slices().len(), 24);
+        assert_eq!(back.clock_offset(), 32400.0);
+        assert!(back.slices()[10].is_some() && back.slices()[9].is_none());
+        // a state line of one map's learner reads as one part
+        fs::write(
+            file(dir.path(), "atc", 7, "state"),
+            "version 7 rows 1 count_scale 40\n",
+        )
+        .unwrap();
+        let (_, read) = newest(dir.path(), "atc", any, &mut Vec::new()).unwrap();
+        assert_eq!(read.count_scales, vec![Some(40.0)]);
     }
 }

@@ -12,7 +12,7 @@ use cliff_client::protocol::{
 use tracing::debug;
 use tracing::{info, warn};
 
-use crate::registry::{self, Registry};
+use crate::registry::{self, Pick, Registry};
 
 use super::daemon::Daemon;
 use super::output::Out;
@@ -83,7 +83,7 @@ impl Daemon {
             let mut words = remote.buffers.pop().unwrap_or_default();
             words.clear();
             words.resize(decoded.payload_words(agents), 0);
-            let (map, map_version) = map_for(&mut self.registry, map, &h, &decoded);
+            let (map, map_version) = map_for(&mut self.registry, map, &decoded);
             let reply = req.into_pending();
             self.scheduler.admit(
                 map,
@@ -138,7 +138,7 @@ impl Daemon {
                 return self.reject(&req, &h, internal());
             }
         };
-        let (map, version) = map_for(&mut self.registry, map, &h, &decoded);
+        let (map, version) = map_for(&mut self.registry, map, &decoded);
         response.user_header_mut().map_version = version;
         self.scheduler.admit(
             map,
@@ -152,18 +152,19 @@ impl Daemon {
 }
 
 /// The map an accepted request on map entry `entry` runs on
-/// ([`registry::map_for_request`]: the version served now, or the base map when the
-/// request pins it) and its version, its neighbour table asked for.
+/// ([`registry::map_for_request`]: the version served now, the base map when the
+/// request pins it, or the version it names) and its version, its neighbour table asked
+/// for.
 fn map_for(
     registry: &mut Registry,
-    entry: usize,
-    h: &RequestHeader,
+    (entry, pick): (usize, Pick),
     decoded: &Decoded,
 ) -> (Arc<CliffMap>, u32) {
     let e = &registry.entries()[entry];
-    let base = h.flags & protocol::FLAG_BASE_MAP != 0;
-    let map = Arc::clone(registry::map_for_request(e, decoded.map_time, base));
-    let version = if base { 0 } else { e.version };
+    // (decode checked that the entry holds the version)
+    let (map, version) = registry::map_for_request(e, decoded.map_time, pick)
+        .unwrap_or_else(|| registry::served_map(e, decoded.map_time));
+    let map = Arc::clone(map);
     if uses_map(decoded) {
         registry.want_table(&map, decoded.params.radius);
     }
@@ -176,29 +177,44 @@ fn uses_map(d: &Decoded) -> bool {
     d.params.method.samples_map() || d.options.scores
 }
 
-/// Validate a request against the loaded maps, their radius limits and the limits; the
-/// map entry's index and the decoded request.
+/// Validate a request against the loaded maps, the versions they hold, their radius
+/// limits and the limits; the map entry's index, the version asked for and the decoded
+/// request.
 fn decode(
     registry: &Registry,
     limits: &Limits,
     h: &RequestHeader,
     rows: &[Observation],
     scratch: &mut protocol::DecodeScratch,
-) -> Result<(usize, Decoded), Rejection> {
+) -> Result<((usize, Pick), Decoded), Rejection> {
     // the version and the kind are checked before anything else is read (a reload
     // request, which names no map, that reaches this point over zenoh is `unknown-kind`)
     if h.version != PROTOCOL_VERSION || h.kind != protocol::KIND_PREDICT {
-        return protocol::decode_request(h, rows, limits, scratch).map(|d| (0, d));
+        return protocol::decode_request(h, rows, limits, scratch).map(|d| ((0, Pick::Served), d));
     }
-    let Some(map) = registry.find(&h.map) else {
+    let Some((map, pick)) = registry.find_pick(&h.map) else {
         return Err(Rejection {
             status: Status::UnknownMap,
             field: Field::Map,
             ..internal()
         });
     };
-    let decoded = protocol::decode_request(h, rows, limits, scratch)?;
     let entry = &registry.entries()[map];
+    // the base-map flag pins the map as loaded, whatever the name asks for
+    let pick = if h.flags & protocol::FLAG_BASE_MAP != 0 {
+        Pick::Version(0)
+    } else {
+        pick
+    };
+    if registry::set_for(entry, pick).is_none() {
+        return Err(Rejection {
+            status: Status::UnknownVersion,
+            field: Field::Map,
+            limit: entry.version,
+            ..internal()
+        });
+    }
+    let decoded = protocol::decode_request(h, rows, limits, scratch)?;
     if uses_map(&decoded) && decoded.params.radius > entry.max_radius {
         return Err(Rejection {
             status: Status::RadiusTooLarge,
@@ -207,5 +223,5 @@ fn decode(
             ..internal()
         });
     }
-    Ok((map, decoded))
+    Ok(((map, pick), decoded))
 }
