@@ -123,11 +123,11 @@ impl Learned {
 
     /// Give part `p` a segment of its rows: held out, or waiting for the next update.
     fn offer(&mut self, p: usize, s: Segment, settings: &LearnSettings) {
-        let name = self.name.clone();
         let part = match self.part(p, settings) {
             Ok(part) => part,
             Err(e) => {
-                warn!(map = %name, slice = p, "rows not learned: {e}");
+                // (the error names the map)
+                warn!(slice = p, "rows not learned: {e}");
                 return;
             }
         };

@@ -408,3 +408,30 @@ pub fn run_child_client() {
     }
     println!("CHILD {tag} done {requests}");
 }
+
+/// A binary of the workspace beside `cliffd` (`cargo test --workspace` builds them all).
+pub fn workspace_exe(name: &str) -> std::path::PathBuf {
+    let exe = std::path::PathBuf::from(env!("CARGO_BIN_EXE_cliffd")).with_file_name(name);
+    assert!(
+        exe.exists(),
+        "{} is missing: run the tests with --workspace, or build it first",
+        exe.display()
+    );
+    exe
+}
+
+/// Ask `request` until a learned version (above 0) answers, at most `limit`; that version.
+pub fn first_learned_version(client: &mut Client, request: &Request, limit: Duration) -> u32 {
+    let end = std::time::Instant::now() + limit;
+    loop {
+        let v = client.predict(request).unwrap().map_version();
+        if v > 0 {
+            return v;
+        }
+        assert!(
+            std::time::Instant::now() < end,
+            "no learned version within {limit:?}"
+        );
+        std::thread::sleep(Duration::from_millis(50));
+    }
+}
