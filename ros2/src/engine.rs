@@ -10,7 +10,8 @@ use crate::msg::{
     Header, Marker, MarkerArray, People, PersonPrediction, Point2, Predictions, Shared, Time,
     TrackedObjects,
 };
-use crate::predictor::{PredictError, Predictor, method_name};
+use crate::observer::Observer;
+use crate::predictor::{ObserveError, PredictError, Predictor, method_name};
 use crate::tracks::{Keeper, Skip};
 use crate::warn::RateLimit;
 
@@ -67,6 +68,8 @@ pub struct Engine {
     style: MarkerStyle,
     warn: Vec<RateLimit>,
     warn_predict: RateLimit,
+    warn_observe: RateLimit,
+    observer: Option<Observer>,
     away: bool,
     selected: Vec<usize>,
     ended: Vec<u32>,
@@ -100,6 +103,8 @@ impl Engine {
             style,
             warn: vec![RateLimit::new(warn_period); Skip::ALL.len()],
             warn_predict: RateLimit::new(warn_period),
+            warn_observe: RateLimit::new(warn_period),
+            observer: None,
             away: false,
             selected: Vec::new(),
             ended: Vec::new(),
@@ -111,6 +116,18 @@ impl Engine {
             spare_people: Vec::new(),
             stats: Stats::default(),
         }
+    }
+
+    /// Send every track's rows to the daemon as observations too, after each cycle's
+    /// prediction (parameter `observe`).
+    pub fn with_observer(mut self, observer: Observer) -> Self {
+        self.observer = Some(observer);
+        self
+    }
+
+    /// The observer, when the engine sends observations.
+    pub fn observer(&self) -> Option<&Observer> {
+        self.observer.as_ref()
     }
 
     /// The tracks.
@@ -227,12 +244,18 @@ impl Engine {
     pub fn expire(&mut self, now: Instant) -> &MarkerArray {
         self.clear_output();
         self.expire_into_markers(now);
+        if !self.ended.is_empty() {
+            self.observe(now);
+        }
         &self.out.markers
     }
 
     fn expire_into_markers(&mut self, now: Instant) {
         self.keeper.expire(now);
         self.keeper.take_ended(&mut self.ended);
+        if let Some(o) = &mut self.observer {
+            o.ended(&self.ended);
+        }
         self.refresh_header();
         let k = self.predictor.settings().params.k;
         let markers = Arc::make_mut(&mut self.out.markers);
@@ -246,14 +269,39 @@ impl Engine {
     }
 
     /// One cycle: forget stale tracks, predict the others ([`Engine::predict`]), build
-    /// the messages ([`Engine::build`]).
+    /// the messages ([`Engine::build`]), then send the observations ([`Engine::observe`]).
     pub fn cycle(&mut self, now: Instant) -> &Output {
         self.clear_output();
         self.expire_into_markers(now);
         if self.keeper.newest().is_finite() && self.predict(now) {
             self.build();
         }
+        self.observe(now);
         &self.out
+    }
+
+    /// The observing step of a cycle (with an observer): the tracks' new rows and ends
+    /// to the daemon. A failure leaves them for the next cycle; over budget and refusals
+    /// warn (rate-limited).
+    pub fn observe(&mut self, now: Instant) {
+        let Some(o) = &mut self.observer else {
+            return;
+        };
+        match o.send(&self.keeper, &mut self.predictor) {
+            // the daemon's absence is the prediction's warning already; a request of
+            // more rows than the daemon takes lowered the observer's rows per request
+            Ok(()) | Err(ObserveError::Unavailable(_) | ObserveError::TooManyRows(_)) => {}
+            Err(e) => {
+                if let Some(held) = self.warn_observe.check(now) {
+                    let s = o.stats();
+                    tracing::warn!(
+                        "observations not taken this cycle: {e} ({} rows taken so far, {} calls over budget, {held} warnings held back)",
+                        s.rows,
+                        s.over_budget
+                    );
+                }
+            }
+        }
     }
 
     /// The prediction step of a cycle: predict every track with enough history. False

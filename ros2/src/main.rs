@@ -17,6 +17,10 @@ const PARAM_HELP: &[(&str, &str)] = &[
     ("daemon_service", "cliffd's iceoryx2 service"),
     ("daemon_deadline", "seconds one cliffd call may take"),
     (
+        "observe",
+        "send every track's rows to cliffd as observations of daemon_map (cliffd --learn NAME learns from them)",
+    ),
+    (
         "map_markers_file",
         "map file drawn as arrows when predicting through cliffd",
     ),

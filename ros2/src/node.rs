@@ -14,6 +14,7 @@ use ros2_client::{
 use crate::engine::Engine;
 use crate::markers::{self, MarkerStyle};
 use crate::msg::{self, MarkerArray, People, Predictions, Shared, TrackedObjects};
+use crate::observer::Observer;
 use crate::predictor::Predictor;
 use crate::settings::Settings;
 use crate::tracks::Keeper;
@@ -58,6 +59,9 @@ pub fn run(settings: Settings, domain_id: u16) -> Result<()> {
         style,
         Duration::from_secs_f64(p.warn_period),
     );
+    if p.observe {
+        engine = engine.with_observer(Observer::new(&p.daemon_map, p.max_tracks)?);
+    }
 
     let context = Context::with_options(ContextOptions::new().domain_id(domain_id))
         .map_err(|e| anyhow::anyhow!("DDS participant on domain {domain_id}: {e:?}"))?;
@@ -184,6 +188,8 @@ pub fn run(settings: Settings, domain_id: u16) -> Result<()> {
         engine.predictor().map_label(),
         if engine.predictor().local_maps().is_some() {
             "in-process"
+        } else if engine.observer().is_some() {
+            "through cliffd, sending it the tracks as observations"
         } else {
             "through cliffd"
         },

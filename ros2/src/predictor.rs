@@ -9,8 +9,10 @@ use std::time::{Duration, Instant};
 use cliff::map::{CliffMap, MapSet};
 use cliff::predict::{Method, Params};
 use cliff_client::protocol::Limits;
+use cliff_client::protocol::{Field, ObserveReply, Rejection, Status};
 use cliff_client::{
-    Client, ClientOptions, Error as ClientError, LocalPredictor, MapTime, Observation, Request,
+    Client, ClientOptions, Error as ClientError, LocalPredictor, MapTime, Observation,
+    ObserveRequest, Request,
 };
 
 /// Which map of the time of day to predict with.
@@ -136,6 +138,26 @@ impl Samples {
         self.lens.extend_from_slice(lens);
         self.scores.extend_from_slice(scores);
     }
+}
+
+/// Why observations were not taken.
+#[derive(Debug, thiserror::Error)]
+pub enum ObserveError {
+    /// The daemon is not there: the rows wait for it.
+    #[error("cliffd unavailable: {0}")]
+    Unavailable(String),
+    /// The daemon's budget for this client is spent (`over-budget`: new rows per second,
+    /// open tracks or rows held, with its limit): nothing was taken, the rows are sent
+    /// again later.
+    #[error("over the daemon's observe budget ({0})")]
+    OverBudget(Rejection),
+    /// The request held more rows than the daemon takes in one (`cliffd
+    /// --max-observe-rows`, the limit): nothing was taken.
+    #[error("more rows than cliffd takes in one request (at most {0})")]
+    TooManyRows(u32),
+    /// The daemon refused the rows (no learned map of that name, bad rows).
+    #[error("observations refused: {0}")]
+    Refused(String),
 }
 
 /// Why a cycle has no prediction.
@@ -329,20 +351,8 @@ impl Predictor {
                 client,
                 next_try,
             } => {
-                if client.is_none() {
-                    let now = Instant::now();
-                    if now < *next_try {
-                        return Err(PredictError::Unavailable(format!(
-                            "no cliffd serves '{service}' yet"
-                        )));
-                    }
-                    *next_try = now + RECONNECT;
-                    match Client::connect_with(service, options.clone()) {
-                        Ok(c) => *client = Some(c),
-                        Err(e) => return Err(PredictError::Unavailable(e.to_string())),
-                    }
-                }
-                let c = client.as_mut().expect("connected above");
+                let c = connect(service, options, client, next_try)
+                    .map_err(PredictError::Unavailable)?;
                 match c.predict(request) {
                     Ok(p) => {
                         let (agents, _, _) = p.shape();
@@ -350,19 +360,81 @@ impl Predictor {
                         out.append(agents, p.positions(), p.lens(), scores);
                         Ok(())
                     }
-                    Err(
-                        e @ (ClientError::NoDaemon { .. }
-                        | ClientError::DaemonGone { .. }
-                        | ClientError::Deadline { .. }),
-                    ) => Err(PredictError::Unavailable(e.to_string())),
-                    Err(e @ ClientError::Ipc(_)) => {
-                        // rebuild the connection on the next try
-                        *client = None;
-                        Err(PredictError::Unavailable(e.to_string()))
-                    }
-                    Err(e) => Err(PredictError::Refused(e.to_string())),
+                    Err(e) => Err(match away(e, client) {
+                        Ok(why) => PredictError::Unavailable(why),
+                        Err(e) => PredictError::Refused(e.to_string()),
+                    }),
                 }
             }
+        }
+    }
+}
+
+/// The daemon connection, made now if it is not up (at most one attempt per
+/// [`RECONNECT`]); the error says why there is none.
+fn connect<'a>(
+    service: &str,
+    options: &ClientOptions,
+    client: &'a mut Option<Client>,
+    next_try: &mut Instant,
+) -> Result<&'a mut Client, String> {
+    if client.is_none() {
+        let now = Instant::now();
+        if now < *next_try {
+            return Err(format!("no cliffd serves '{service}' yet"));
+        }
+        *next_try = now + RECONNECT;
+        *client = Some(Client::connect_with(service, options.clone()).map_err(|e| e.to_string())?);
+    }
+    Ok(client.as_mut().expect("connected above"))
+}
+
+/// Whether a failed call means the daemon is away (`Ok`, with why; an iceoryx2 failure
+/// also drops the connection, rebuilt on the next try) or refused it (`Err`).
+fn away(e: ClientError, client: &mut Option<Client>) -> Result<String, ClientError> {
+    match e {
+        ClientError::NoDaemon { .. }
+        | ClientError::DaemonGone { .. }
+        | ClientError::Deadline { .. } => Ok(e.to_string()),
+        ClientError::Ipc(_) => {
+            *client = None;
+            Ok(e.to_string())
+        }
+        e => Err(e),
+    }
+}
+
+impl Predictor {
+    /// Send observations to the daemon (over the prediction's connection), for a map it
+    /// learns (`cliffd --learn NAME`). In-process there is no one to send them to:
+    /// [`ObserveError::Refused`].
+    pub fn observe(&mut self, request: &ObserveRequest) -> Result<ObserveReply, ObserveError> {
+        let Backend::Daemon {
+            service,
+            options,
+            client,
+            next_try,
+        } = &mut self.backend
+        else {
+            return Err(ObserveError::Refused(
+                "observations need a daemon (map_file is set)".into(),
+            ));
+        };
+        let c = connect(service, options, client, next_try).map_err(ObserveError::Unavailable)?;
+        match c.observe(request) {
+            Ok(reply) => Ok(reply),
+            Err(ClientError::Rejected(r)) if r.status == Status::OverBudget => {
+                Err(ObserveError::OverBudget(r))
+            }
+            Err(ClientError::Rejected(r))
+                if r.status == Status::HistoryTooLong && r.field == Field::Rows =>
+            {
+                Err(ObserveError::TooManyRows(r.limit))
+            }
+            Err(e) => Err(match away(e, client) {
+                Ok(why) => ObserveError::Unavailable(why),
+                Err(e) => ObserveError::Refused(e.to_string()),
+            }),
         }
     }
 }

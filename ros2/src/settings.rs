@@ -34,6 +34,9 @@ pub struct Parameters {
     pub daemon_service: String,
     /// Deadline of one daemon call (s).
     pub daemon_deadline: f64,
+    /// Send every track's rows to the daemon as observations of `daemon_map`, for a
+    /// daemon that learns it (`cliffd --learn NAME`).
+    pub observe: bool,
     /// Map file drawn as arrows on the map topic when predicting through the daemon
     /// (in-process, the map predicted from is drawn).
     pub map_markers_file: String,
@@ -94,6 +97,7 @@ impl Default for Parameters {
             daemon_map: "demo".into(),
             daemon_service: cliff_client::DEFAULT_SERVICE.into(),
             daemon_deadline: 0.2,
+            observe: false,
             map_markers_file: String::new(),
             map_frame: "map".into(),
             static_transforms: Vec::new(),
@@ -251,6 +255,12 @@ impl Parameters {
         }
         if self.k == 0 || self.max_tracks == 0 || self.history < 2 {
             bail!("parameters k and max_tracks must be at least 1, history at least 2");
+        }
+        if self.observe && !self.map_file.is_empty() {
+            bail!(
+                "parameter observe: observations go to cliffd, but map_file '{}' predicts in-process (set map_file to \"\" and daemon_map to the map cliffd learns)",
+                self.map_file
+            );
         }
         self.method()?;
         self.time_of_day()?;

@@ -47,12 +47,14 @@ components=$(grep -c . "$map")
 # rclpy listener and publisher), then verify. Set before the call (reset after it):
 # PUB (more publisher arguments), VERIFY (an array of more verify.py arguments; @TMP@
 # is the scenario's folder), FRAMES_OF (frames),
-# RESTART=1 (stop cliffd 12 s into the publishing and start it again 8 s later).
+# RESTART=1 (stop cliffd 12 s into the publishing and start it again 8 s later);
+# @TMP@ in DAEMON_ARGS is the scenario's folder too.
 PUB=""; VERIFY=(); FRAMES_OF=""; RESTART=""
 scenario() {
   local name="$1"; local daemon="$2"; local label="$3"; shift 3
   local tmp; tmp="$(mktemp -d)"
   local t1=$SECONDS
+  daemon="${daemon//@TMP@/$tmp}"
   unshare -n bash -c '
     ip link set lo up; ip link set lo multicast on; ip route add 224.0.0.0/4 dev lo
     export ROS_DOMAIN_ID=42
@@ -88,7 +90,11 @@ scenario() {
     wait $listener
     [ -z "$restarter" ] || wait "$restarter"
     kill $node 2>/dev/null; wait $node 2>/dev/null
-    if [ -n "$dpid" ]; then kill "$(cat "$tmp/dpid")" 2>/dev/null; sleep 0.5; fi
+    if [ -n "$dpid" ]; then
+      # SIGTERM, then wait for its closing lines (a learning daemon writes its snapshot)
+      dpid=$(cat "$tmp/dpid"); kill "$dpid" 2>/dev/null
+      for _ in $(seq 100); do kill -0 "$dpid" 2>/dev/null || break; sleep 0.1; done
+    fi
     true' _ "$tmp" "$target" "$here" "$tracks" "${FRAMES_OF:-$frames}" "$daemon" "$PUB" "$RESTART" "$@"
   echo "scenario $name ran in $((SECONDS - t1)) s (logs in $tmp)"
   if [ ! -s "$tmp/sent.json" ] || [ ! -s "$tmp/received.json" ]; then
@@ -125,6 +131,13 @@ RESTART=1
 VERIFY=(--all-deleted --gone @TMP@/gone --back @TMP@/back --min-received 0.55
         --warn "no prediction this cycle:1:7" --warn "predictions are back:1:3")
 scenario cliffd "--map thor1=$map" thor1 -p daemon_map:=thor1 -p map_markers_file:="$map" "${common[@]}"
+
+# through a cliffd that learns the map: the node sends it every track's rows as
+# observations (parameter observe); cliffd takes each row once and each track's end, and
+# learns them at shutdown (no version during the run: the predictions stay the map's)
+VERIFY=(--all-deleted --observed @TMP@/cliffd.log --learned @TMP@/learned)
+scenario observe "--map thor1=$map --learn thor1 --learn-dir @TMP@/learned --learn-every-s 3600 --learn-every-rows 1000000" \
+  thor1 -p daemon_map:=thor1 -p observe:=true -p map_markers_file:="$map" "${common[@]}"
 
 # autoware TrackedObjects from a best-effort publisher, in the frame odom with a static transform
 FRAMES_OF=60

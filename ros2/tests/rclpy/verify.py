@@ -11,7 +11,9 @@ equal the reference's exactly (float32 for float32). A message whose stamp is mo
 --transform, the sent positions are first mapped into the map frame as the node's static
 transform does. Optional checks: every marker ever added was deleted by the end
 (--all-deleted), the daemon's absence (--gone/--back), warnings in the node's log
-(--log, --warn), and with --expect-skipped that nothing was predicted at all. Prints one
+(--log, --warn), that a learning cliffd took every row the node received once and every
+track's end (--observed, its log, and --learned, its snapshot folder), and with
+--expect-skipped that nothing was predicted at all. Prints one
 line per check and `N passed, N failed`; exits 1 on any failure.
 """
 import argparse
@@ -111,6 +113,48 @@ def check_gone(r, sent, preds, gone, back):
             f"predictions back by themselves after the restart ({len(after)} for {len(after_sent)} messages)")
 
 
+def observed_counts(sent, timeout, transform=None):
+    """The rows the track rules keep (each person's stamps newer than its last), and the
+    tracks they make (a person forgotten after the timeout and seen again is a new one)."""
+    last, rows, tracks = {}, 0, 0
+    newest = None
+    for m in sent:
+        t = secs(m["stamp"])
+        if newest is not None and t < newest - timeout:
+            last, newest = {}, None
+        newest = t if newest is None or t > newest else newest
+        for name, _, _ in m["people"]:
+            if name not in last:
+                last[name] = None
+                tracks += 1
+            if last[name] is None or t > last[name]:
+                last[name] = t
+                rows += 1
+        for name in [n for n, lt in last.items() if lt < newest - timeout]:
+            del last[name]
+    return rows, tracks
+
+
+def check_observed(r, sent, timeout, daemon_log, learned_dir):
+    """cliffd's closing line: every row once, every track's end (a duplicate of the
+    track's newest row), rows learned, and a snapshot written."""
+    import glob
+    import re
+    rows, tracks = observed_counts(sent, timeout)
+    text = open(daemon_log, errors="replace").read()
+    m = re.search(r"cliffd learned: (\d+) rows taken, (\d+) duplicates, (\d+) rows learned, "
+                  r"(\d+) versions, (\d+) refused, (\d+) snapshots", text)
+    if not m:
+        r.check(False, "cliffd's closing line on learning", text[-300:])
+        return
+    taken, dup, learned, _, _, snaps = (int(v) for v in m.groups())
+    r.check(taken == rows, f"cliffd took every row the node received once ({taken} of {rows})")
+    r.check(dup == tracks, f"every track's end reached cliffd ({dup} of {tracks} tracks)")
+    files = sorted(glob.glob(f"{learned_dir}/*.cliff"))
+    r.check(learned > 0 and snaps >= 1 and files,
+            f"cliffd learned the tracks ({learned} rows) and wrote a snapshot ({len(files)} files)")
+
+
 def expect_skipped(r, got):
     with_people = [p for p in got["predictions"] if p["people"]]
     adds = [m for m in got["markers"] if any(k["action"] == 0 for k in m)]
@@ -143,6 +187,8 @@ def main():
     ap.add_argument("--log", default="", help="the node's log")
     ap.add_argument("--warn", action="append", default=[], help="TEXT:MIN:MAX lines of --log")
     ap.add_argument("--expect-skipped", action="store_true")
+    ap.add_argument("--observed", default="", help="the log of a learning cliffd the node sent observations")
+    ap.add_argument("--learned", default="", help="that cliffd's --learn-dir")
     a = ap.parse_args()
     r = Results(a.name)
 
@@ -159,6 +205,8 @@ def main():
         check_gone(r, sent, preds, float(open(a.gone).read()), float(open(a.back).read()))
     if a.all_deleted:
         check_all_deleted(r, got["markers"])
+    if a.observed:
+        check_observed(r, sent, a.timeout, a.observed, a.learned)
     r.check(len(sent) > 0 and len(preds) >= a.min_received * len(sent),
             f"{len(preds)} predictions for {len(sent)} people messages",
             f"expected at least {a.min_received:.0%}")
