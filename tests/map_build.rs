@@ -486,3 +486,43 @@ fn damping_bounds_how_far_a_burst_against_the_flow_moves_each_location() {
         report.damped
     );
 }
+
+#[test]
+fn small_updates_grow_the_locations_a_batch_build_of_all_the_data_has() {
+    // The daemon learns in batches of a few thousand rows spread over the whole mall:
+    // a place that gets one or two samples per batch must still get its location once
+    // it has gathered enough, as the batch build over all the rows gives it one.
+    let first = atc_obs(&atc_files("train", &[10]));
+    let mut online =
+        OnlineMap::build(&first, &BuildParams::default(), UpdateParams::default()).unwrap();
+    let start = online.len();
+    let rest: Vec<u32> = TRAIN_HOURS.iter().copied().filter(|&h| h != 10).collect();
+    let rest = atc_obs(&atc_files("train", &rest));
+    let mut created = 0;
+    for chunk in rest.chunks(5_000) {
+        created += online.update(chunk).unwrap().created;
+    }
+    let map = online.to_map().unwrap();
+    let key = |p: glam::DVec2| ((p.x * 1e3).round() as i64, (p.y * 1e3).round() as i64);
+    let learned: std::collections::HashSet<_> =
+        map.locations().iter().map(|l| key(l.position)).collect();
+    let batch = &train_map().map;
+    let missing = batch
+        .locations()
+        .iter()
+        .filter(|l| !learned.contains(&key(l.position)))
+        .count();
+    let (seeds, seeded) = online.seeds();
+    println!(
+        "hour 10: {start} locations; after {} updates of 5,000: {} ({created} created, {seeds} places waiting with {seeded} samples); batch build of all hours: {}, {missing} of them missing",
+        rest.len().div_ceil(5_000),
+        map.locations().len(),
+        batch.locations().len()
+    );
+    assert!(
+        missing * 100 <= batch.locations().len(),
+        "{missing} of the batch build's {} locations missing",
+        batch.locations().len()
+    );
+    assert!(seeded <= cliff::map::update::SEED_BUDGET);
+}

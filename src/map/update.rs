@@ -22,8 +22,12 @@
 //!    components per node capped (merging the closest pair), so that a node does not
 //!    grow without bound; `W <- W + n`.
 //!
-//! Nodes without a location get one when the batch brings them enough samples; nodes
-//! without new data only decay. Observation ratios are `W / max W`.
+//! Nodes without a location get one when they have gathered enough samples for a
+//! mixture: a node's samples too few to fit are kept (the newest [`SEED_SAMPLES`], at most
+//! [`SEED_BUDGET`] over all nodes) and joined by the next batches' until they fit, as a
+//! batch build over all the data would have fitted them. Nodes without new data only
+//! decay. Observation ratios are `W / max W`. The map's speed prior
+//! ([`CliffMap::speed_prior`]) is carried over unchanged.
 //!
 //! **Damping** ([`UpdateParams::max_move`]): an update that would move a location's
 //! mixture further than the bound, measured as the total-variation distance between
@@ -66,6 +70,7 @@ use super::mixture::{cap_components, merge_near_duplicates};
 use super::movement::total_variation;
 use super::{CliffMap, Component, Location, MapError};
 use crate::math::{wrap_2pi, wrap_pi};
+use crate::motion::SpeedPrior;
 
 /// Options of online updates.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -178,6 +183,22 @@ struct NodeState {
     comps: Vec<Component>,
 }
 
+/// Most samples kept for one node without a location, the newest (module docs).
+pub const SEED_SAMPLES: usize = 64;
+
+/// Most samples kept for nodes without a location altogether (4 MiB of samples); a node
+/// whose samples would exceed it keeps none.
+pub const SEED_BUDGET: usize = 1 << 18;
+
+/// The samples of a node without a location, too few for a mixture so far.
+#[derive(Debug, Clone, Default, PartialEq)]
+struct Seed {
+    /// Moving samples (theta, rho), oldest first.
+    samples: Vec<[f64; 2]>,
+    /// All observations (standing included).
+    total: f64,
+}
+
 /// A CLiFF-map with the state needed for online updates (see the module docs).
 #[derive(Debug, Clone)]
 pub struct OnlineMap {
@@ -185,6 +206,19 @@ pub struct OnlineMap {
     radius: f64,
     params: UpdateParams,
     nodes: BTreeMap<(i64, i64), NodeState>,
+    /// Nodes without a location that have samples.
+    seeds: BTreeMap<(i64, i64), Seed>,
+    /// Samples in `seeds`.
+    seeded: usize,
+    speed_prior: Option<SpeedPrior>,
+}
+
+/// What an update made of one node of the batch.
+enum NodeOutcome {
+    Updated(NodeState, NodeChange),
+    Created(NodeState),
+    /// Still too few samples: the node's seed now.
+    Seeded(Seed),
 }
 
 #[derive(Default)]
@@ -289,7 +323,21 @@ impl OnlineMap {
             radius: params.radius.unwrap_or(step),
             params,
             nodes,
+            seeds: BTreeMap::new(),
+            seeded: 0,
+            speed_prior: map.speed_prior(),
         })
+    }
+
+    /// Nodes without a location that keep samples, and how many samples they keep
+    /// together (module docs).
+    pub fn seeds(&self) -> (usize, usize) {
+        (self.seeds.len(), self.seeded)
+    }
+
+    /// The speed prior the maps of [`OnlineMap::to_map`] carry (the start map's).
+    pub fn speed_prior(&self) -> Option<SpeedPrior> {
+        self.speed_prior
     }
 
     /// The count an observation ratio of 1 stands for (the largest effective count).
@@ -354,7 +402,7 @@ impl OnlineMap {
             n.w_all *= p.decay;
         }
         let split = split(obs, self.lattice, self.radius)?;
-        let results: Vec<Option<(NodeState, NodeChange, bool)>> = (0..split.len())
+        let results: Vec<Option<NodeOutcome>> = (0..split.len())
             .into_par_iter()
             .map(|i| {
                 let x = split.samples_of(i);
@@ -377,20 +425,29 @@ impl OnlineMap {
                         };
                         s.w += ch.kept * x.len() as f64;
                         s.w_all += ch.kept * total;
-                        Some((s, ch, false))
+                        Some(NodeOutcome::Updated(s, ch))
                     }
                     None => {
-                        let comps = fit_mixture(x, &p.fit);
-                        if comps.is_empty() {
+                        // the samples kept from earlier batches, then this batch's
+                        let mut seed = self.seeds.get(&split.keys[i]).cloned().unwrap_or_default();
+                        if x.is_empty() && seed.samples.is_empty() {
                             return None;
                         }
+                        seed.samples.extend_from_slice(x);
+                        seed.total += total;
+                        let comps = fit_mixture(&seed.samples, &p.fit);
+                        if comps.is_empty() {
+                            let excess = seed.samples.len().saturating_sub(SEED_SAMPLES);
+                            seed.samples.drain(..excess);
+                            return Some(NodeOutcome::Seeded(seed));
+                        }
                         let mut s = NodeState {
-                            w: x.len() as f64,
-                            w_all: total,
+                            w: seed.samples.len() as f64,
+                            w_all: seed.total.max(seed.samples.len() as f64),
                             comps,
                         };
                         normalise(&mut s.comps);
-                        Some((s, NodeChange::default(), true))
+                        Some(NodeOutcome::Created(s))
                     }
                 }
             })
@@ -400,19 +457,37 @@ impl OnlineMap {
             ..UpdateReport::default()
         };
         for (i, r) in results.into_iter().enumerate() {
-            let Some((s, ch, created)) = r else { continue };
-            if created {
-                report.created += 1;
-            } else {
-                report.updated += 1;
-            }
+            let key = split.keys[i];
+            let (s, ch) = match r {
+                None => continue,
+                Some(NodeOutcome::Seeded(seed)) => {
+                    let before = self.seeds.remove(&key).map_or(0, |s| s.samples.len());
+                    self.seeded -= before;
+                    if self.seeded + seed.samples.len() <= SEED_BUDGET {
+                        self.seeded += seed.samples.len();
+                        self.seeds.insert(key, seed);
+                    }
+                    continue;
+                }
+                Some(NodeOutcome::Created(s)) => {
+                    if let Some(seed) = self.seeds.remove(&key) {
+                        self.seeded -= seed.samples.len();
+                    }
+                    report.created += 1;
+                    (s, NodeChange::default())
+                }
+                Some(NodeOutcome::Updated(s, ch)) => {
+                    report.updated += 1;
+                    if ch.kept < 1.0 {
+                        report.damped += 1;
+                    }
+                    (s, ch)
+                }
+            };
             report.added += ch.added;
             report.merged += ch.merged;
             report.pruned += ch.pruned;
-            if !created && ch.kept < 1.0 {
-                report.damped += 1;
-            }
-            self.nodes.insert(split.keys[i], s);
+            self.nodes.insert(key, s);
         }
         Ok(report)
     }
@@ -434,7 +509,9 @@ impl OnlineMap {
                 observation_ratio: if max_w > 0.0 { n.w / max_w } else { 0.0 },
             })
             .collect();
-        CliffMap::with_grid_step(locations, Some(self.lattice.step))
+        let mut map = CliffMap::with_grid_step(locations, Some(self.lattice.step))?;
+        map.set_speed_prior(self.speed_prior)?;
+        Ok(map)
     }
 }
 
@@ -649,6 +726,66 @@ mod tests {
                 }
             })
             .collect()
+    }
+
+    #[test]
+    fn updates_keep_the_maps_speed_prior() {
+        let built = OnlineMap::build(
+            &batch(1, 2000, &[(0.3, 1.2)]),
+            &BuildParams::default(),
+            UpdateParams::default(),
+        )
+        .unwrap();
+        let mut map = built.to_map().unwrap();
+        assert_eq!(map.speed_prior(), None);
+        let prior = SpeedPrior {
+            mean: 1.2,
+            keep: 0.6,
+            pairs: 500,
+        };
+        map.set_speed_prior(Some(prior)).unwrap();
+        let mut online = OnlineMap::from_map(&map, 100.0, UpdateParams::default()).unwrap();
+        online.update(&batch(2, 500, &[(3.0, 0.9)])).unwrap();
+        assert_eq!(online.to_map().unwrap().speed_prior(), Some(prior));
+    }
+
+    #[test]
+    fn a_place_gets_a_location_once_its_samples_over_several_updates_are_enough() {
+        let mut online = OnlineMap::build(
+            &batch(1, 2000, &[(0.3, 1.2)]),
+            &BuildParams::default(),
+            UpdateParams::default(),
+        )
+        .unwrap();
+        // one walker a batch at (30, 30), far from every location, heading about 1 rad
+        let far = DVec2::new(30.0, 30.0);
+        let one = |i: usize| Observation {
+            position: far,
+            theta: 1.0 + 0.05 * ((i * 7 % 5) as f64 - 2.0),
+            rho: 1.0 + 0.05 * ((i * 3 % 4) as f64 - 1.5),
+        };
+        // Each batch alone is one sample, too few for a mixture (at least
+        // `FitParams::min_samples`); the nodes within the radius of (30, 30) keep them
+        // until, together, they fit.
+        assert!(FitParams::default().min_samples > 1);
+        let mut places = 0;
+        let mut updates = 0;
+        while online.to_map().unwrap().nearest(far, 0.5).is_none() {
+            assert!(updates < 10, "no location after {updates} updates");
+            assert_eq!(online.seeds(), (places, places * updates));
+            let r = online.update(&[one(updates)]).unwrap();
+            updates += 1;
+            if updates == 1 {
+                places = online.seeds().0;
+                assert!(places >= 1);
+            }
+            assert!(r.created == 0 || r.created == places, "{r:?}");
+        }
+        assert!(updates >= FitParams::default().min_samples);
+        let map = online.to_map().unwrap();
+        let loc = &map.locations()[map.nearest(far, 0.5).expect("a location at last")];
+        assert!((loc.components[0].theta - 1.0).abs() < 0.1, "{loc:?}");
+        assert_eq!(online.seeds(), (0, 0));
     }
 
     #[test]
