@@ -64,7 +64,8 @@ def score(cliff, map_path, dev):
 
 
 def ade(cliff, map_path, dev, seeds, methods, out):
-    """Per (method, person, horizon): (ADE, share of the samples reaching the horizon)."""
+    """Per (method, person, horizon): (ADE, share of the samples reaching the horizon,
+    minADE, minFDE), over the people whose ground truth lasts the whole horizon."""
     os.makedirs(out, exist_ok=True)
     run([cliff, "eval", "--map", map_path, "--tracks", *dev, "--format", "atc", "--protocol", "seconds",
          "--dt", "1", "--horizon", "50", "--radius", "1", "--seeds", str(seeds), "--methods", ",".join(methods),
@@ -74,8 +75,25 @@ def ade(cliff, map_path, dev, seeds, methods, out):
         for row in csv.DictReader(f):
             if float(row["horizon"]) in HORIZONS:
                 reach = float(row["samples_reaching"]) / 20.0
-                per[(row["method"], row["person_id"], float(row["horizon"]))] = (float(row["ade"]), reach)
+                per[(row["method"], row["person_id"], float(row["horizon"]))] = (
+                    float(row["ade"]), reach, float(row["min_ade"]), float(row["min_fde"]))
     return per
+
+
+def summary(cliff, map_path, dev, seeds, methods, out):
+    """Per (method, horizon): the means over every person the seconds protocol predicts
+    to that horizon (cliff eval's summary): people, ADE, minADE, minFDE."""
+    os.makedirs(out, exist_ok=True)
+    run([cliff, "eval", "--map", map_path, "--tracks", *dev, "--format", "atc", "--protocol", "seconds",
+         "--dt", "1", "--horizon", "50", "--radius", "1", "--seeds", str(seeds), "--methods", ",".join(methods),
+         "--out", out])
+    got = {}
+    with open(os.path.join(out, "summary.csv")) as f:
+        for row in csv.DictReader(f):
+            if float(row["horizon"]) in HORIZONS:
+                got[(row["method"], float(row["horizon"]))] = tuple(
+                    float(row[c]) for c in ("people", "ade", "min_ade", "min_fde"))
+    return got
 
 
 def keep_snapshots(learn_dir, snaps, stop):
@@ -143,6 +161,9 @@ def main():
     ap.add_argument("--seeds", type=int, default=10)
     ap.add_argument("--out", default="/tmp/cliff-learning")
     ap.add_argument("--methods", default="cliff,improved", help="methods whose ADE is compared (cliff eval --methods)")
+    ap.add_argument("--all-people", action="store_true",
+                    help="also evaluate every person the protocol predicts to each horizon, not only those with "
+                         "the whole 50 s of ground truth (a third table)")
     a = ap.parse_args()
     cliff, cliffd = os.path.join(a.bin, "cliff"), os.path.join(a.bin, "cliffd")
     train = sorted(glob.glob(os.path.join(DATA, "train", "*.csv")))
@@ -225,6 +246,36 @@ def main():
                 reach = sum(per[k][p][1] for p in both) / len(both)
                 cells += [f"{mine:.3f}", f"{100 * (mine / ref - 1):+.1f} %", f"{100 * reach:.0f} %"]
             print(f"| `{m}` | {labels[k]} | " + " | ".join(cells) + " |")
+    print()
+    print("Top-k errors of the same people (the best of the 20 samples: where the map's other modes show):")
+    print()
+    print("| method | map | " + " | ".join(f"minADE {h:g} s | minFDE {h:g} s" for h in HORIZONS) + " |")
+    print("|---|---|" + "---|---|" * len(HORIZONS))
+    for m in methods:
+        for k in ("one", "learned", "all"):
+            cells = []
+            for h in HORIZONS:
+                both = [p for p in per[k] if p[0] == m and p[2] == h and p in per["all"]]
+                for i in (2, 3):
+                    mine = sum(per[k][p][i] for p in both) / len(both)
+                    ref = sum(per["all"][p][i] for p in both) / len(both)
+                    cells.append(f"{mine:.3f} ({100 * (mine / ref - 1):+.1f} %)")
+            print(f"| `{m}` | {labels[k]} | " + " | ".join(cells) + " |")
+    if a.all_people:
+        sums = {k: summary(cliff, p, dev, a.seeds, methods, os.path.join(a.out, "eval-all-people-" + k))
+                for k, p in maps.items()}
+        print()
+        print("Every person the seconds protocol predicts to each horizon (not only those with 50 s of ground truth):")
+        print()
+        print("| method | map | " + " | ".join(f"people {h:g} s | ADE | minADE | minFDE" for h in HORIZONS) + " |")
+        print("|---|---|" + "---|---|---|---|" * len(HORIZONS))
+        for m in methods:
+            for k in ("one", "learned", "all"):
+                cells = []
+                for h in HORIZONS:
+                    n, e, mn, mf = sums[k][(m, h)]
+                    cells += [f"{n:.0f}", f"{e:.3f}", f"{mn:.3f}", f"{mf:.3f}"]
+                print(f"| `{m}` | {labels[k]} | " + " | ".join(cells) + " |")
     print(f"\n{len(curve) - 1} snapshots; curve: {a.out}/score-curve.svg (.csv)")
 
 
