@@ -47,6 +47,8 @@ pub(super) fn four_uniforms_normal(bits: u32) -> f32 {
 #[derive(Debug, Clone, Copy)]
 pub(super) struct FollowBlock {
     pub(super) weight: [f32; 4],
+    /// The weights' logarithms (minus infinity for padding).
+    pub(super) log_weight: [f32; 4],
     pub(super) cos_mu: [f32; 4],
     pub(super) sin_mu: [f32; 4],
 }
@@ -72,6 +74,7 @@ pub(super) fn follow_blocks(locations: &[Location]) -> (Vec<u32>, Vec<FollowBloc
         for b in 0..fixed.unwrap_or(blocks_for(n)) {
             let mut block = FollowBlock {
                 weight: [0.0; 4],
+                log_weight: [f32::NEG_INFINITY; 4],
                 cos_mu: [0.0; 4],
                 sin_mu: [0.0; 4],
             };
@@ -80,6 +83,7 @@ pub(super) fn follow_blocks(locations: &[Location]) -> (Vec<u32>, Vec<FollowBloc
                 let c = &loc.components[j.min(n - 1)];
                 if j < n {
                     block.weight[l] = (c.weight / total) as f32;
+                    block.log_weight[l] = block.weight[l].ln();
                 }
                 block.cos_mu[l] = c.theta.cos() as f32;
                 block.sin_mu[l] = c.theta.sin() as f32;
@@ -160,6 +164,29 @@ pub(super) fn follow_cumulative_fixed<const B: usize>(
     }
 }
 
+/// The mean direction `(cos, sin)` of the likeliest of `blocks`' components for the
+/// heading `(ux, uy)` under the follow rule of concentration `kappa`: the largest
+/// `ln w_j + kappa cos(heading - mu_j)`, ties to the first.
+#[inline(always)]
+pub(super) fn follow_mode_of(blocks: &[FollowBlock], ux: f32, uy: f32, kappa: f32) -> (f32, f32) {
+    #[cfg(target_arch = "x86_64")]
+    match blocks {
+        [a, b] => return follow_sse::mode(&[*a, *b], ux, uy, kappa),
+        [a] => return follow_sse::mode(&[*a], ux, uy, kappa),
+        _ => {}
+    }
+    let (mut best, mut dir) = (f32::NEG_INFINITY, (ux, uy));
+    for b in blocks {
+        for l in 0..4 {
+            let v = b.log_weight[l] + kappa * (ux * b.cos_mu[l] + uy * b.sin_mu[l]);
+            if v > best {
+                (best, dir) = (v, (b.cos_mu[l], b.sin_mu[l]));
+            }
+        }
+    }
+    dir
+}
+
 /// The follow weights of [`follow_cumulative_fixed`] in SSE (part of the x86-64
 /// baseline).
 #[cfg(target_arch = "x86_64")]
@@ -200,6 +227,45 @@ mod follow_sse {
             let y = mul(p, scale);
             // below -87: 0
             _mm_and_ps(y, _mm_cmpnlt_ps(x, s(-87.0)))
+        }
+    }
+
+    /// [`follow_mode_of`](super::follow_mode_of) for `B` blocks, four components per
+    /// instruction.
+    #[inline(always)]
+    pub(super) fn mode<const B: usize>(
+        blocks: &[FollowBlock; B],
+        ux: f32,
+        uy: f32,
+        kappa: f32,
+    ) -> (f32, f32) {
+        // SAFETY: SSE is part of the x86-64 baseline; loads go through references to
+        // four floats.
+        unsafe {
+            let (vx, vy, vk) = (_mm_set1_ps(ux), _mm_set1_ps(uy), _mm_set1_ps(kappa));
+            let v: [__m128; B] = std::array::from_fn(|b| {
+                let c = _mm_mul_ps(vx, _mm_loadu_ps(blocks[b].cos_mu.as_ptr()));
+                let c = _mm_add_ps(c, _mm_mul_ps(vy, _mm_loadu_ps(blocks[b].sin_mu.as_ptr())));
+                _mm_add_ps(
+                    _mm_loadu_ps(blocks[b].log_weight.as_ptr()),
+                    _mm_mul_ps(vk, c),
+                )
+            });
+            let mut m = v[0];
+            for x in &v[1..] {
+                m = _mm_max_ps(m, *x);
+            }
+            let m = _mm_max_ps(m, _mm_movehl_ps(m, m));
+            let m = _mm_max_ps(m, _mm_shuffle_ps::<0b01>(m, m));
+            let most = _mm_shuffle_ps::<0>(m, m);
+            for (b, x) in v.iter().enumerate() {
+                let hit = _mm_movemask_ps(_mm_cmpeq_ps(*x, most));
+                if hit != 0 {
+                    let l = hit.trailing_zeros() as usize;
+                    return (blocks[b].cos_mu[l], blocks[b].sin_mu[l]);
+                }
+            }
+            (ux, uy)
         }
     }
 
@@ -317,6 +383,7 @@ mod tests {
         for b in 0..n.div_ceil(4) {
             let mut block = FollowBlock {
                 weight: [0.0; 4],
+                log_weight: [f32::NEG_INFINITY; 4],
                 cos_mu: [0.0; 4],
                 sin_mu: [0.0; 4],
             };
@@ -363,5 +430,35 @@ mod tests {
             }
         }
         assert_eq!(compared, 200 * 5 * 5);
+    }
+
+    #[test]
+    fn follow_mode_is_the_component_of_the_largest_follow_weight() {
+        for seed in 0..200 {
+            for n in [1, 3, 5, 8] {
+                let mut b = blocks(n, seed);
+                for block in b.iter_mut() {
+                    block.log_weight = block
+                        .weight
+                        .map(|w| if w > 0.0 { w.ln() } else { f32::NEG_INFINITY });
+                }
+                for (h, kappa) in [(0.0f32, 4.0f32), (2.0, 1.0), (-1.0, 0.0)] {
+                    let (ux, uy) = (h.cos(), h.sin());
+                    // the largest weight of the general rule, by hand
+                    let (mut best, mut want) = (-1.0f64, (0.0, 0.0));
+                    for block in &b {
+                        for l in 0..4 {
+                            let c = (ux * block.cos_mu[l] + uy * block.sin_mu[l]) as f64;
+                            let w = block.weight[l] as f64 * (kappa as f64 * c).exp();
+                            if w > best {
+                                (best, want) = (w, (block.cos_mu[l], block.sin_mu[l]));
+                            }
+                        }
+                    }
+                    let got = follow_mode_of(&b, ux, uy, kappa);
+                    assert_eq!(got, want, "{seed} {n} {h} {kappa}");
+                }
+            }
+        }
     }
 }
