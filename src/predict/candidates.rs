@@ -3,8 +3,8 @@
 //! one drawn first.
 
 use super::Point;
+use super::flow_memo::FlowMemo;
 use super::lanes::Lane;
-use super::prune::FlowMemo;
 
 /// The drawn candidates of one agent before the best `k` are kept.
 #[derive(Debug, Clone, Default)]

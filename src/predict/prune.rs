@@ -13,6 +13,7 @@ use rand_xoshiro::Xoshiro256PlusPlus;
 #[cfg(doc)]
 use super::PRUNE_SCHEDULE;
 use super::candidates::{Candidates, rank};
+use super::flow_memo::{FlowMemo, flow_key};
 use super::lanes::{Lane, Lanes, MAX_LANES, finish_sample};
 use crate::math::fastmath::{acos_f32_with, exp_neg_f32};
 use crate::math::simd::Separate;
@@ -83,7 +84,9 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
                     *s = lane.score;
                 }
                 reach.clear();
-                flow.start();
+                if walk {
+                    flow.start();
+                }
                 for (&len, lane) in lens[..m].iter().zip(&lanes[..m]) {
                     let ahead = if walk && len as usize == to {
                         self.look_ahead(lane, steps - to, flow)
@@ -126,7 +129,7 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
     /// ([`CliffMap::follow_mode`](crate::map::CliffMap::follow_mode), with the call's
     /// follow concentration) by the heading kernel's weight, as a sample would without
     /// the noise of the draws. The walks of one checkpoint share their ends: a walk that
-    /// comes to a location with a heading (in [`FLOW_BINS`] bins) that an earlier walk
+    /// comes to a location with a heading (in [`FLOW_BINS`](super::flow_memo::FLOW_BINS) bins) that an earlier walk
     /// of the checkpoint passed stops there and takes that walk's count
     /// ([`FlowMemo`]), so most walks take a few steps.
     pub(super) fn look_ahead(&self, lane: &Lane, max: usize, memo: &mut FlowMemo) -> u32 {
@@ -194,78 +197,6 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
 /// the horizon kept samples that then ended, 11 s FDE 2 % above constant velocity's).
 pub(super) const FLOW_WALK_BEFORE: f64 = 0.5;
 
-/// Heading bins of the flow walks' shared states ([`Lanes::look_ahead`]).
-pub(super) const FLOW_BINS: usize = 32;
-
-/// The state key of a flow walk at location `loc` heading `(hx, hy)`.
-#[inline]
-fn flow_key(loc: usize, hx: f32, hy: f32) -> u32 {
-    let a = crate::math::fastmath::atan2_f32(hy, hx); // [-pi, pi]
-    let bin = ((a + std::f32::consts::PI) * (FLOW_BINS as f32 / std::f32::consts::TAU)) as usize;
-    (loc * FLOW_BINS + bin.min(FLOW_BINS - 1)) as u32
-}
-
-/// The flow walks' states of one checkpoint and the steps each is worth: an
-/// open-addressed table whose entries carry the checkpoint's number (so a new
-/// checkpoint starts empty without clearing it).
-#[derive(Debug, Clone, Default)]
-pub(super) struct FlowMemo {
-    /// (key + 1, steps, checkpoint); key 0 is empty.
-    slots: Vec<[u32; 3]>,
-    checkpoint: u32,
-    path: Vec<u32>,
-}
-
-/// Slots of a [`FlowMemo`] (a power of two).
-const FLOW_SLOTS: usize = 1024;
-/// Probes before a [`FlowMemo`] gives up on a key.
-const FLOW_PROBES: usize = 8;
-
-impl FlowMemo {
-    /// Start a checkpoint: no state known.
-    pub(super) fn start(&mut self) {
-        if self.slots.len() != FLOW_SLOTS {
-            self.slots = vec![[0; 3]; FLOW_SLOTS];
-        }
-        self.checkpoint = self.checkpoint.wrapping_add(1);
-        if self.checkpoint == 0 {
-            self.slots.fill([0; 3]);
-            self.checkpoint = 1;
-        }
-    }
-
-    #[inline]
-    fn slot(key: u32, probe: usize) -> usize {
-        ((key.wrapping_add(1).wrapping_mul(0x9e37_79b1) >> 22) as usize + probe) & (FLOW_SLOTS - 1)
-    }
-
-    #[inline]
-    fn get(&self, key: u32) -> Option<u32> {
-        for probe in 0..FLOW_PROBES {
-            let [k, v, c] = self.slots[Self::slot(key, probe)];
-            if c != self.checkpoint || k == 0 {
-                return None;
-            }
-            if k == key.wrapping_add(1) {
-                return Some(v);
-            }
-        }
-        None
-    }
-
-    #[inline]
-    fn insert(&mut self, key: u32, steps: u32) {
-        for probe in 0..FLOW_PROBES {
-            let i = Self::slot(key, probe);
-            let [k, _, c] = self.slots[i];
-            if c != self.checkpoint || k == 0 || k == key.wrapping_add(1) {
-                self.slots[i] = [key.wrapping_add(1), steps, self.checkpoint];
-                return;
-            }
-        }
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -273,6 +204,7 @@ mod tests {
     use crate::math::Simd;
     use crate::motion::State;
     use crate::predict::PRUNE_SCHEDULE;
+    use crate::predict::flow_memo::FLOW_SLOTS;
     use crate::predict::lanes::{ANY, Extras};
     use crate::predict::options::pruned_share;
     use crate::predict::seeds::agent_rng;
