@@ -8,7 +8,8 @@ use rand_distr::StandardNormal;
 use super::cliff_map::CliffMap;
 use super::limits::MAX_COMPONENTS;
 use super::sampling_tables::{
-    DirectionComponent, FollowWeights, count_below, follow_cumulative, four_uniforms_normal,
+    DirectionComponent, FollowWeights, count_below, follow_cumulative, follow_cumulative_fixed,
+    follow_mode_of, four_uniforms_normal,
 };
 use crate::math::wrap_2pi;
 
@@ -99,7 +100,24 @@ impl CliffMap {
     pub fn follow_weights(&self, index: usize, ux: f32, uy: f32, kappa: f32) -> FollowWeights {
         let s = self.follow_start[index] as usize;
         let e = (self.follow_start[index + 1] as usize).min(s + 2);
-        FollowWeights(follow_cumulative::<8>(&self.follow[s..e], ux, uy, kappa))
+        // (every location of a map has the same number of blocks: a predictable branch)
+        match &self.follow[s..e] {
+            [a, b] => FollowWeights(follow_cumulative_fixed(&[*a, *b], ux, uy, kappa)),
+            [a] => FollowWeights(follow_cumulative_fixed(&[*a], ux, uy, kappa)),
+            blocks => FollowWeights(follow_cumulative::<8>(blocks, ux, uy, kappa)),
+        }
+    }
+
+    /// The mean direction (a unit vector `(cos, sin)`) of location `index`'s likeliest
+    /// component for a walker heading `(ux, uy)` under
+    /// [`direction_following`](Self::direction_following)'s rule with concentration
+    /// `kappa` (the largest `w_j exp(kappa cos(heading - mu_j))`, ties to the first): the
+    /// flow a sample there most likely follows.
+    #[inline]
+    pub fn follow_mode(&self, index: usize, ux: f32, uy: f32, kappa: f32) -> (f32, f32) {
+        let s = self.follow_start[index] as usize;
+        let e = self.follow_start[index + 1] as usize;
+        follow_mode_of(&self.follow[s..e], ux, uy, kappa)
     }
 
     /// The draw of [`direction_following`](Self::direction_following) at location

@@ -3,6 +3,7 @@
 //! one drawn first.
 
 use super::Point;
+use super::flow_memo::FlowMemo;
 use super::lanes::Lane;
 
 /// The drawn candidates of one agent before the best `k` are kept.
@@ -18,6 +19,10 @@ pub(super) struct Candidates {
     pub(super) centre: Vec<[f64; 3]>,
     /// The candidates' lanes between the stretches of a pruned rollout.
     pub(super) lanes: Vec<Lane>,
+    /// The candidates' projected reach at a checkpoint of a pruned rollout.
+    pub(super) reach: Vec<u32>,
+    /// The flow walks' shared states at a checkpoint.
+    pub(super) flow: FlowMemo,
 }
 
 /// The order key of candidate `i`, which reaches `len` with score `score`: the furthest

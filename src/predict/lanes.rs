@@ -92,6 +92,18 @@ pub(super) struct Lane {
     pub(super) score: f32,
 }
 
+impl Lane {
+    /// Whether the sample goes on, its position, its heading (a unit vector) and speed.
+    pub(super) fn motion(&self) -> (bool, DVec2, [f32; 2], f64) {
+        (
+            self.alive,
+            DVec2::new(self.px, self.py),
+            [self.ux, self.uy],
+            self.speed,
+        )
+    }
+}
+
 impl<const N: usize> LaneState<N> {
     /// The lanes `lanes` (at most `N`; the others dead).
     fn load(lanes: &[Lane]) -> Self {

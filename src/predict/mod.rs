@@ -31,6 +31,7 @@ mod batch;
 mod call;
 mod candidates;
 mod cvm;
+mod flow_memo;
 mod lanes;
 mod options;
 pub mod preset;

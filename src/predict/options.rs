@@ -35,10 +35,12 @@
 //!   stops a sample where the map has no data), then the highest-scored. Costs
 //!   `candidates` times the work (with follow, twice that: [`Options::cost_factor`]).
 //! * **Prune** ([`Options::prune`], with candidates): the candidates are rolled in
-//!   stretches and cut at the checkpoints of [`PRUNE_SCHEDULE`] to the best of them by
-//!   their partial scores (the furthest reaching first), so most of them stop early:
-//!   with 5 candidates, cut to `2 k` halfway, 3.5 times the samples' steps of `k`
-//!   samples instead of 5.
+//!   stretches and cut at the checkpoints of [`PRUNE_SCHEDULE`] to the best of them:
+//!   the furthest projected reach first (the steps reached, plus the steps a walker
+//!   following the map's likeliest flow from where the candidate is would stay on the
+//!   map; at the checkpoints before half the horizon), then the partial score. So most
+//!   of them stop early: with 4 candidates, cut to `2 k` at a fifth of the horizon and
+//!   to `k` at seven tenths, 2.1 times the samples' steps of `k` samples instead of 4.
 //! * **Speed prior** ([`Options::speed_prior`]): the start speed regresses to the
 //!   typical speed of the map's walkers with the map's
 //!   [`SpeedPrior`](crate::motion::SpeedPrior) (`cliff map build` learns one; a map
@@ -163,21 +165,25 @@ impl Options {
     /// How many times the paper's work a call with these options does, at most: 2 with
     /// follow on (else 1), and with [`Options::candidates`] > 1 that times the samples'
     /// steps rolled per kept sample's step (the candidates, or fewer when
-    /// [pruned](Options::prune)) times 1.25 for their scores, rounded up. What a
-    /// daemon's cost limits and its scheduler count.
+    /// [pruned](Options::prune)) times 1.25 for their scores, plus 1 for a pruned
+    /// rollout's flow walks at its checkpoints, rounded up. What a daemon's cost limits
+    /// and its scheduler count.
     ///
     /// Measured per call on the benchmark people (`cargo bench --bench options_cost`,
     /// BENCHMARKS.md): scores, the speed kernel and coasting each cost under 1.3 times
-    /// the paper, follow about 1.6 times; `improved` (5 candidates pruned, follow,
-    /// scores, trust, blend, consensus) 8-9 times, 10-11 without pruning.
+    /// the paper, follow about 1.6 times; `improved` (4 candidates pruned, follow,
+    /// scores, trust, blend, consensus) 4-5 times in wall clock and 5.6 times in
+    /// instructions (up to 6.7 on the ATC person), 8.3 times with its earlier 5
+    /// candidates pruned halfway, 10-11 without pruning.
     ///
     /// ```
     /// use cliff::predict::Options;
     /// assert_eq!(Options::default().cost_factor(), 1);
     /// assert_eq!(Options { scores: true, speed_beta: 1.0, ..Options::default() }.cost_factor(), 1);
     /// assert_eq!(Options { follow: 4.0, candidates: 5, ..Options::default() }.cost_factor(), 13);
-    /// let pruned = Options { follow: 4.0, candidates: 5, prune: true, ..Options::default() };
-    /// assert_eq!(pruned.cost_factor(), 9); // 5 to half the horizon, then 2: 3.5 x 2 x 1.25
+    /// let pruned = Options { follow: 4.0, candidates: 4, prune: true, ..Options::default() };
+    /// // 4 to a fifth of the horizon, 2 to seven tenths, then 1: 2.1 x 2 x 1.25 + 1
+    /// assert_eq!(pruned.cost_factor(), 7);
     /// ```
     pub fn cost_factor(&self) -> usize {
         let follow = if self.follow > 0.0 { 2.0 } else { 1.0 };
@@ -190,8 +196,10 @@ impl Options {
         } else {
             candidates as f64
         };
-        // candidates are scored (to rank them), at about 1.25 times the step
-        (drawn * follow * 1.25).ceil() as usize
+        // candidates are scored (to rank them), at about 1.25 times the step; a pruned
+        // rollout walks the flow from its candidates at each checkpoint
+        let walks = if self.prune { 1.0 } else { 0.0 };
+        (drawn * follow * 1.25 + walks).ceil() as usize
     }
 
     /// Check the options; the error names the first unusable one.
@@ -246,12 +254,15 @@ impl Options {
 
 /// The checkpoints of a pruned rollout, `(fraction, keep)`: at `fraction` of the
 /// horizon's steps (rounded, at least one step in, before the last) the candidates left
-/// are cut to `keep` times `k` (rounded up, at least `k`). Chosen on held-out data
-/// (BENCHMARKS.md, "Pruned candidates"): halfway, to two per kept sample. Earlier or
-/// harder cuts lose accuracy at the horizons after the cut (a sample's partial
-/// likelihood says little about whether it will reach the horizon, which the final
-/// choice weighs first).
-pub const PRUNE_SCHEDULE: &[(f64, f64)] = &[(0.5, 2.0)];
+/// are cut to `keep` times `k` (rounded up, at least `k`), ranked by the steps they
+/// reached, then their partial scores; before half the horizon the steps reached count
+/// those the map's likeliest flow would keep them on the map from there (a flow walk).
+/// Chosen on held-out data (BENCHMARKS.md, "Flow-ranked pruning"): to two per kept
+/// sample at a fifth of the horizon, to one at seven tenths. Without the flow walk such
+/// an early cut loses accuracy at the horizons after it (a sample's partial likelihood
+/// says little about whether it will reach the horizon, which the final choice weighs
+/// first).
+pub const PRUNE_SCHEDULE: &[(f64, f64)] = &[(0.2, 2.0), (0.7, 1.0)];
 
 /// The samples' steps a pruned rollout of `candidates` per kept sample rolls, per kept
 /// sample's step, at most (the share of the horizon each stretch covers times the

@@ -36,11 +36,12 @@ pub struct Preset {
 /// * **follow 4** ([`Options::follow`]): the component drawn at each step is weighed by
 ///   how well it agrees with the walker's heading, so samples keep to the flows going
 ///   their way;
-/// * **5 candidates** ([`Options::candidates`]), **pruned** ([`Options::prune`]): the
-///   `k` samples kept are the best of `5 k` drawn, those that reach furthest and then
-///   the most likely under the map; the candidates are cut to `2 k` halfway to the
-///   horizon ([`PRUNE_SCHEDULE`](super::PRUNE_SCHEDULE)), so they roll 3.5 times the
-///   paper's samples' steps instead of 5 times;
+/// * **4 candidates** ([`Options::candidates`]), **pruned** ([`Options::prune`]): the
+///   `k` samples kept are the best of `4 k` drawn, those that reach furthest and then
+///   the most likely under the map; the candidates are cut to `2 k` at a fifth of the
+///   horizon, ranked by how far they would reach following the map's likeliest flow,
+///   and to `k` at seven tenths ([`PRUNE_SCHEDULE`](super::PRUNE_SCHEDULE)), so they
+///   roll 2.1 times the paper's samples' steps instead of 4 times;
 /// * **the speed prior** ([`Options::speed_prior`]): the speed regresses to the
 ///   typical speed of the map's walkers ([`SpeedPrior`](crate::motion::SpeedPrior),
 ///   which `cliff map build` learns from its tracks; a map without one keeps the
@@ -68,7 +69,7 @@ pub const IMPROVED: Preset = Preset {
         coast: 0.0,
         scores: true,
         follow: 4.0,
-        candidates: 5,
+        candidates: 4,
         prune: true,
         speed_prior: true,
         trust: 0.5,
@@ -78,7 +79,7 @@ pub const IMPROVED: Preset = Preset {
 };
 
 /// How many times the paper's work a call of `params` with `options` does, at most
-/// ([`Options::cost_factor`] of the preset's options for [`Method::Improved`]: 9): what
+/// ([`Options::cost_factor`] of the preset's options for [`Method::Improved`]: 7): what
 /// a daemon's cost limits count.
 pub fn cost_factor(params: &Params, options: &Options) -> usize {
     resolve(params, options).1.cost_factor()
