@@ -5,7 +5,6 @@
 //! before the horizon.
 
 use glam::DVec2;
-use rand_xoshiro::Xoshiro256PlusPlus;
 
 #[cfg(doc)]
 use super::PRUNE_SCHEDULE;
@@ -22,7 +21,7 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
     /// their scores are then those at the last checkpoint.
     pub(super) fn roll_pruned<const MOTION: u8>(
         &self,
-        rng: &mut Xoshiro256PlusPlus,
+        key: u64,
         schedule: &[(f64, f64)],
         k: usize,
         steps: usize,
@@ -59,9 +58,9 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
                 let (lanes, lens) = (&mut lanes[g..e], &mut lens[g..e]);
                 let tracks = &mut tracks[g * steps..e * steps];
                 if scored {
-                    self.roll_stretch::<MOTION, true>(rng, lanes, from, to, tracks, lens);
+                    self.roll_stretch::<MOTION, true>((key, g), lanes, from, to, tracks, lens);
                 } else {
-                    self.roll_stretch::<MOTION, false>(rng, lanes, from, to, tracks, lens);
+                    self.roll_stretch::<MOTION, false>((key, g), lanes, from, to, tracks, lens);
                 }
             }
             if to == steps {
@@ -107,7 +106,7 @@ mod tests {
     use crate::predict::PRUNE_SCHEDULE;
     use crate::predict::lanes::{ANY, Extras, Lane};
     use crate::predict::options::pruned_share;
-    use crate::predict::seeds::agent_rng;
+    use crate::predict::seeds::agent_key;
     use crate::predict::{Params, Point};
 
     #[test]
@@ -183,22 +182,23 @@ mod tests {
             observed_speed: state.speed,
             params: &params,
             extras: &extras,
+            table: None,
         };
         let steps = params.steps();
         for m in [3, 12, 20] {
             let mut whole = scratch(m, steps);
-            let rng = &mut agent_rng(3, 0);
+            let key = agent_key(3, 0);
             lanes.roll_agent::<ANY, true>(
-                rng,
+                key,
                 &mut whole.tracks,
                 &mut whole.lens,
                 &mut whole.scores,
             );
             // checkpoints that keep every candidate
             let mut pieces = scratch(m, steps);
-            let rng = &mut agent_rng(3, 0);
+            let key = agent_key(3, 0);
             let left = lanes.roll_pruned::<ANY>(
-                rng,
+                key,
                 &[(0.2, 50.0), (0.5, 50.0)],
                 1,
                 steps,
@@ -224,19 +224,21 @@ mod tests {
             observed_speed: state.speed,
             params: &params,
             extras: &extras,
+            table: None,
         };
         let steps = params.steps();
         let (m, k, cut) = (20, 5, 9);
         let mut pruned = scratch(m, steps);
-        let rng = &mut agent_rng(8, 0);
+        let key = agent_key(8, 0);
         let at = cut as f64 / steps as f64;
-        let left = lanes.roll_pruned::<ANY>(rng, &[(at, 1.0)], k, steps, true, &mut pruned);
+        let left = lanes.roll_pruned::<ANY>(key, &[(at, 1.0)], k, steps, true, &mut pruned);
         assert_eq!(left, k);
         // the same by hand: all candidates to the cut, the best k by (reach, score)
         let mut by_hand = scratch(m, steps);
-        let rng = &mut agent_rng(8, 0);
+        let key = agent_key(8, 0);
         let c = &mut by_hand;
-        lanes.roll_stretch::<ANY, true>(rng, &mut c.lanes, 0, cut, &mut c.tracks, &mut c.lens);
+        let c_lanes = &mut c.lanes;
+        lanes.roll_stretch::<ANY, true>((key, 0), c_lanes, 0, cut, &mut c.tracks, &mut c.lens);
         let mut best: Vec<usize> = (0..m).collect();
         best.sort_by(|&x, &y| {
             (c.lens[y], c.lanes[y].score)
@@ -255,7 +257,7 @@ mod tests {
         }
         let kc = &mut kept;
         lanes.roll_stretch::<ANY, true>(
-            rng,
+            (key, 0),
             &mut kc.lanes,
             cut,
             steps,
