@@ -304,13 +304,7 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
                     // SAFETY: `Extras::simd` is a path the processor has
                     // (`Simd::available`, checked where the call's extras are made), so
                     // AVX2 and FMA exist; the map's lane tables have a width.
-                    unsafe {
-                        match N {
-                            ..=8 => self.roll_paper_avx2::<1, N>(table, &st, tracks, lens),
-                            9..=16 => self.roll_paper_avx2::<2, N>(table, &st, tracks, lens),
-                            _ => self.roll_paper_avx2::<3, N>(table, &st, tracks, lens),
-                        }
-                    }
+                    unsafe { self.roll_paper_avx2::<N>(table, &st, tracks, lens) }
                 }
                 // SAFETY: as above.
                 _ => unsafe {

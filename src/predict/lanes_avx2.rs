@@ -15,95 +15,222 @@ use crate::map::{NeighbourTable, Probe8, lane_mask};
 use crate::math::fastmath::x8::{self, per};
 use crate::math::lane_rng::{next8, normal8, unit8};
 
+/// The most lanes one group rolls: three registers of eight.
+const PACK: usize = 24;
+
+/// The lanes of one group between stretches of the AVX2 loop, lane by lane: the first
+/// `n` in use (after a [`compact`](Pack::compact), all of them alive).
+struct Pack {
+    n: usize,
+    /// Each lane's sample (its row of the output).
+    sample: [u32; PACK],
+    px: [f64; PACK],
+    py: [f64; PACK],
+    ux: [f32; PACK],
+    uy: [f32; PACK],
+    /// The next step's uniform (the component) and normal.
+    u: [f32; PACK],
+    z: [f32; PACK],
+    loc: [i32; PACK],
+    /// All ones for a live lane.
+    alive: [i32; PACK],
+    len: [u32; PACK],
+    rng: [[u32; PACK]; 4],
+}
+
+impl Pack {
+    /// Keep the live lanes (in order); the others' lengths go to `lens`.
+    fn compact(&mut self, lens: &mut [u32]) {
+        let mut k = 0;
+        for l in 0..self.n {
+            if self.alive[l] == 0 {
+                lens[self.sample[l] as usize] = self.len[l];
+                continue;
+            }
+            if k != l {
+                self.sample[k] = self.sample[l];
+                self.px[k] = self.px[l];
+                self.py[k] = self.py[l];
+                self.ux[k] = self.ux[l];
+                self.uy[k] = self.uy[l];
+                self.u[k] = self.u[l];
+                self.z[k] = self.z[l];
+                self.loc[k] = self.loc[l];
+                self.alive[k] = self.alive[l];
+                self.len[k] = self.len[l];
+                for w in 0..4 {
+                    self.rng[w][k] = self.rng[w][l];
+                }
+            }
+            k += 1;
+        }
+        // lanes past the live ones: dead, at a live lane's place (valid for the loads)
+        for l in k..PACK {
+            self.alive[l] = 0;
+            self.sample[l] = u32::MAX;
+            if k > 0 {
+                self.px[l] = self.px[0];
+                self.py[l] = self.py[0];
+                self.loc[l] = self.loc[0];
+            }
+        }
+        self.n = k;
+    }
+}
+
 impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
     /// A whole rollout of the paper's method (heading rule `CircularMean`) for the
-    /// `lens.len()` samples of one group, from their start `st`, in `V` registers of
-    /// eight lanes (`8 V >= N`; lanes past the samples stay dead), looking the map up in
-    /// `table` (the table `near` answers from). Writes the positions and lengths; the
-    /// caller ends the samples (`finish_sample`).
+    /// `lens.len()` samples of one group (at most 24), from their start `st`, looking
+    /// the map up in `table` (the table `near` answers from). Writes the positions and
+    /// lengths; the caller ends the samples (`finish_sample`).
     ///
-    /// Every lane, dead or alive, takes its generator's two words and draws at every
-    /// step (a dead lane's draws are discarded), and every sample's position is written
-    /// at every step (past a sample's end, `finish_sample` overwrites them).
+    /// The lanes roll in three, two or one registers of eight: whenever the live
+    /// samples fit in fewer registers, the live lanes are packed together and the rest
+    /// of the rollout takes fewer registers (a lane's arithmetic does not depend on
+    /// where it is). Every lane takes its generator's two words at every step, and every
+    /// live lane's position is written at every step of a stretch (past a sample's end,
+    /// `finish_sample` overwrites them).
     ///
     /// # Safety
     /// The processor must have AVX2 and FMA, and the map lane tables a width
     /// (`CliffMap::lane_width`).
     #[target_feature(enable = "avx2,fma")]
     #[inline(never)]
-    pub(super) unsafe fn roll_paper_avx2<const V: usize, const N: usize>(
+    pub(super) unsafe fn roll_paper_avx2<const N: usize>(
         &self,
         table: &NeighbourTable,
         st: &LaneState<N>,
         tracks: &mut [Point],
         lens: &mut [u32],
     ) {
-        let (map, params) = (self.map, self.params);
         let n = lens.len();
-        debug_assert!(n <= N && N <= 8 * V);
+        debug_assert!(n <= N && N <= PACK);
         let steps = tracks.len() / n;
+        let mut pack = Pack {
+            n,
+            sample: [u32::MAX; PACK],
+            px: [st.px[0]; PACK],
+            py: [st.py[0]; PACK],
+            ux: [1.0; PACK],
+            uy: [0.0; PACK],
+            u: [0.0; PACK],
+            z: [0.0; PACK],
+            loc: [st.loc[0] as i32; PACK],
+            alive: [0; PACK],
+            len: [0; PACK],
+            rng: [[0; PACK]; 4],
+        };
+        for l in 0..n {
+            pack.sample[l] = l as u32;
+            pack.px[l] = st.px[l];
+            pack.py[l] = st.py[l];
+            pack.ux[l] = st.ux[l];
+            pack.uy[l] = st.uy[l];
+            pack.loc[l] = st.loc[l] as i32;
+            pack.alive[l] = -(st.alive[l] as i32);
+            for (word, w) in pack.rng.iter_mut().zip(st.rng.get(l)) {
+                word[l] = w;
+            }
+        }
+        let mut j = 0;
+        let mut first = true;
+        while j < steps {
+            let before = j;
+            // SAFETY: AVX2 and FMA, lane tables with a width (this function's
+            // contract); the pack's lanes are the group's.
+            j = unsafe {
+                match pack.n.div_ceil(8) {
+                    0 => break,
+                    1 => self.stretch::<1>(table, &mut pack, first, (j, steps), tracks),
+                    2 => self.stretch::<2>(table, &mut pack, first, (j, steps), tracks),
+                    _ => self.stretch::<3>(table, &mut pack, first, (j, steps), tracks),
+                }
+            };
+            debug_assert!(j > before);
+            first = false;
+            pack.compact(lens);
+        }
+        for l in 0..pack.n {
+            lens[pack.sample[l] as usize] = pack.len[l];
+        }
+    }
+
+    /// Steps `from..steps` of the pack's first `8 V` lanes (the pack holds no more),
+    /// in `V` registers, until the horizon, until no lane is alive, or until the live
+    /// lanes fit in fewer registers; the lanes stored back. The step to go on from. With
+    /// `first` the lanes take the first step's words from their generators (else the
+    /// pack holds them). `tracks` holds the group's samples, `steps` positions each.
+    ///
+    /// # Safety
+    /// As [`roll_paper_avx2`](Self::roll_paper_avx2).
+    #[target_feature(enable = "avx2,fma")]
+    #[inline]
+    unsafe fn stretch<const V: usize>(
+        &self,
+        table: &NeighbourTable,
+        pack: &mut Pack,
+        first: bool,
+        (from, steps): (usize, usize),
+        tracks: &mut [Point],
+    ) -> usize {
+        let (map, params) = (self.map, self.params);
         let width = map.lane_width().expect("lane tables with a width");
         let dist = _mm256_set1_pd(self.state.speed * params.dt);
         let neg_beta = _mm256_set1_ps(-(params.beta as f32));
+        let n = pack.n;
         // the lanes, eight to a register (positions: two registers of four)
         let mut px = [[_mm256_setzero_pd(); 2]; V];
         let mut py = [[_mm256_setzero_pd(); 2]; V];
         let mut ux = [_mm256_setzero_ps(); V];
         let mut uy = [_mm256_setzero_ps(); V];
+        let mut u = [_mm256_setzero_ps(); V];
+        let mut z = [_mm256_setzero_ps(); V];
         let mut loc = [_mm256_setzero_si256(); V];
         let mut alive = [_mm256_setzero_si256(); V];
         let mut len = [_mm256_setzero_si256(); V];
         let mut rng = [[_mm256_setzero_si256(); 4]; V];
-        {
-            let (x, y) = (&st.px, &st.py);
-            let (mut xs, mut ys) = ([[x[0]; 8]; V], [[y[0]; 8]; V]);
-            let (mut hx, mut hy) = ([[1.0f32; 8]; V], [[0.0f32; 8]; V]);
-            let mut locs = [[st.loc[0] as i32; 8]; V];
-            let mut live = [[0i32; 8]; V];
-            let mut words = [[[0u32; 8]; 4]; V];
-            for l in 0..N {
-                let (v, i) = (l / 8, l % 8);
-                xs[v][i] = x[l];
-                ys[v][i] = y[l];
-                hx[v][i] = st.ux[l];
-                hy[v][i] = st.uy[l];
-                locs[v][i] = st.loc[l] as i32;
-                live[v][i] = -(st.alive[l] as i32);
-                let state = st.rng.get(l);
-                for w in 0..4 {
-                    words[v][w][i] = state[w];
-                }
-            }
+        // SAFETY: the pack's arrays hold 8 V lanes and more.
+        unsafe {
             for v in 0..V {
-                // SAFETY: each array holds eight lanes.
-                unsafe {
-                    for h in 0..2 {
-                        px[v][h] = _mm256_loadu_pd(xs[v].as_ptr().add(4 * h));
-                        py[v][h] = _mm256_loadu_pd(ys[v].as_ptr().add(4 * h));
-                    }
-                    ux[v] = _mm256_loadu_ps(hx[v].as_ptr());
-                    uy[v] = _mm256_loadu_ps(hy[v].as_ptr());
-                    loc[v] = _mm256_loadu_si256(locs[v].as_ptr() as *const __m256i);
-                    alive[v] = _mm256_loadu_si256(live[v].as_ptr() as *const __m256i);
-                    for w in 0..4 {
-                        rng[v][w] = _mm256_loadu_si256(words[v][w].as_ptr() as *const __m256i);
-                    }
+                let o = 8 * v;
+                for h in 0..2 {
+                    px[v][h] = _mm256_loadu_pd(pack.px.as_ptr().add(o + 4 * h));
+                    py[v][h] = _mm256_loadu_pd(pack.py.as_ptr().add(o + 4 * h));
+                }
+                ux[v] = _mm256_loadu_ps(pack.ux.as_ptr().add(o));
+                uy[v] = _mm256_loadu_ps(pack.uy.as_ptr().add(o));
+                u[v] = _mm256_loadu_ps(pack.u.as_ptr().add(o));
+                z[v] = _mm256_loadu_ps(pack.z.as_ptr().add(o));
+                loc[v] = _mm256_loadu_si256(pack.loc.as_ptr().add(o) as *const __m256i);
+                alive[v] = _mm256_loadu_si256(pack.alive.as_ptr().add(o) as *const __m256i);
+                len[v] = _mm256_loadu_si256(pack.len.as_ptr().add(o) as *const __m256i);
+                for (reg, word) in rng[v].iter_mut().zip(&pack.rng) {
+                    *reg = _mm256_loadu_si256(word.as_ptr().add(o) as *const __m256i);
                 }
             }
         }
-        // each sample's positions (the group's `n` samples, `steps` each)
-        let base = tracks.as_mut_ptr();
-        let live = |v: usize| n.saturating_sub(8 * v).min(8);
-        // the first step's words: a uniform (the component) and a normal per lane
-        let mut u = [_mm256_setzero_ps(); V];
-        let mut z = [_mm256_setzero_ps(); V];
-        for v in 0..V {
-            u[v] = unit8(next8(&mut rng[v]));
-            z[v] = normal8(next8(&mut rng[v]));
+        if first {
+            // the first step's words: a uniform (the component) and a normal per lane
+            for v in 0..V {
+                u[v] = unit8(next8(&mut rng[v]));
+                z[v] = normal8(next8(&mut rng[v]));
+            }
         }
+        // each lane's row of positions (lanes past `n` write none)
+        let base = tracks.as_mut_ptr();
+        let rows: [*mut Point; PACK] = std::array::from_fn(|l| {
+            if l < n {
+                base.wrapping_add(pack.sample[l] as usize * steps)
+            } else {
+                std::ptr::null_mut()
+            }
+        });
+        let live = |v: usize| n.saturating_sub(8 * v).min(8);
+        let fewer = 8 * (V - 1) as u32;
         let mut probes = [Probe8::default(); V];
         let mut pairs = [[0.0f32; 2]; 8];
-        for j in 0..steps {
+        let mut j = from;
+        while j < steps {
             // Draw (the component and its direction) and turn.
             // SAFETY: AVX2 and FMA; every lane's location is one of the map's (the
             // start's, or one the lookup found), and the tables have this width.
@@ -135,20 +262,20 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
                 let xs = _mm256_set_m128(_mm256_cvtpd_ps(px[v][1]), _mm256_cvtpd_ps(px[v][0]));
                 let ys = _mm256_set_m128(_mm256_cvtpd_ps(py[v][1]), _mm256_cvtpd_ps(py[v][0]));
                 let (lo, hi) = (_mm256_unpacklo_ps(xs, ys), _mm256_unpackhi_ps(xs, ys));
-                // SAFETY: `pairs` holds eight pairs; sample 8 v + i < n has `steps`
-                // positions from `base + (8 v + i) steps`, and j < steps.
+                // SAFETY: `pairs` holds eight pairs; lane 8 v + i < n writes its sample's
+                // row, which holds `steps` positions, and j < steps.
                 unsafe {
                     let o = pairs.as_mut_ptr() as *mut f32;
                     _mm256_storeu_ps(o, _mm256_permute2f128_ps::<0x20>(lo, hi));
                     _mm256_storeu_ps(o.add(8), _mm256_permute2f128_ps::<0x31>(lo, hi));
                     for (i, &pair) in pairs[..live(v)].iter().enumerate() {
-                        *base.add((8 * v + i) * steps + j) = pair;
+                        *rows[8 * v + i].add(j) = pair;
                     }
                 }
             }
             // Finish the lookups and keep the lanes that found a location.
             let step_len = _mm256_set1_epi32(j as i32 + 1);
-            let mut any = 0;
+            let mut alive_now = 0;
             for v in 0..V {
                 // SAFETY: AVX2 and FMA; the probe of these points.
                 let (found, code) = unsafe { table.resolve8(&probes[v], px[v], py[v]) };
@@ -156,20 +283,34 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
                 loc[v] = _mm256_blendv_epi8(loc[v], code, now);
                 len[v] = _mm256_blendv_epi8(len[v], step_len, now);
                 alive[v] = now;
-                any |= _mm256_movemask_ps(_mm256_castsi256_ps(now));
+                alive_now += (_mm256_movemask_ps(_mm256_castsi256_ps(now)) as u32).count_ones();
             }
-            if any == 0 {
+            j += 1;
+            if alive_now == 0 || (V > 1 && alive_now <= fewer) {
                 break;
             }
         }
-        for v in 0..V {
-            let mut l = [0u32; 8];
-            // SAFETY: eight lanes.
-            unsafe { _mm256_storeu_si256(l.as_mut_ptr() as *mut __m256i, len[v]) };
-            for (i, &len) in l.iter().enumerate().take(n.saturating_sub(8 * v).min(8)) {
-                lens[8 * v + i] = len;
+        // SAFETY: the pack's arrays hold 8 V lanes and more.
+        unsafe {
+            for v in 0..V {
+                let o = 8 * v;
+                for h in 0..2 {
+                    _mm256_storeu_pd(pack.px.as_mut_ptr().add(o + 4 * h), px[v][h]);
+                    _mm256_storeu_pd(pack.py.as_mut_ptr().add(o + 4 * h), py[v][h]);
+                }
+                _mm256_storeu_ps(pack.ux.as_mut_ptr().add(o), ux[v]);
+                _mm256_storeu_ps(pack.uy.as_mut_ptr().add(o), uy[v]);
+                _mm256_storeu_ps(pack.u.as_mut_ptr().add(o), u[v]);
+                _mm256_storeu_ps(pack.z.as_mut_ptr().add(o), z[v]);
+                _mm256_storeu_si256(pack.loc.as_mut_ptr().add(o) as *mut __m256i, loc[v]);
+                _mm256_storeu_si256(pack.alive.as_mut_ptr().add(o) as *mut __m256i, alive[v]);
+                _mm256_storeu_si256(pack.len.as_mut_ptr().add(o) as *mut __m256i, len[v]);
+                for (word, reg) in pack.rng.iter_mut().zip(rng[v]) {
+                    _mm256_storeu_si256(word.as_mut_ptr().add(o) as *mut __m256i, reg);
+                }
             }
         }
+        j
     }
 }
 
