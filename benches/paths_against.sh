@@ -4,8 +4,9 @@
 # lane loop before the per-sample generators) in a worktree of its own (the core crate
 # only, its own target directory), builds the current one, then runs the two binaries
 # alternately, RUNS times each (default 3), and prints per case the median over the
-# runs of each run's median time per call, and each case's ratio to the old binary's
-# baseline case (`x old baseline`: how many times faster).
+# runs of each run's median time per call, each case's ratio to the old binary's
+# baseline case of the same person in the same run (`x old baseline`: how many times
+# faster; the median over runs, and per run), and which run is the median one.
 #
 # Run from the repository root: `benches/paths_against.sh [COMMIT] [RUNS] [ROUNDS]`
 # (ROUNDS: rounds of 20 calls per case in one run, default 100). The datasets are read
@@ -54,17 +55,26 @@ echo "load after: $(cut -d' ' -f1-3 /proc/loadavg)"
 python3 - "$results" <<'EOF'
 import statistics, sys
 rows = [l.split() for l in open(sys.argv[1])]
-cases = {}
+times = {}  # (binary, case) -> {run: us}
 for which, run, case, us in rows:
-    cases.setdefault((which, case), []).append(float(us))
-base = {}
-for (which, case), v in cases.items():
-    if which == "old" and not case.endswith("_avx2"):
-        base[case] = statistics.median(v)
-print(f"{'binary':<5} {'case':<44} {'median us':>10} {'x old baseline':>15}   runs")
-for (which, case), v in sorted(cases.items(), key=lambda kv: (kv[0][1].split('_')[0], kv[0][0] != 'old', kv[0][1])):
-    person = case.removesuffix("_avx2")
-    m = statistics.median(v)
-    print(f"{which:<5} {case:<44} {m:>10.2f} {base[person] / m:>15.2f}   {' '.join(f'{x:.2f}' for x in v)}")
+    times.setdefault((which, case), {})[int(run)] = float(us)
+runs = sorted({int(r[1]) for r in rows})
+def person(case):
+    return case.removesuffix("_avx2")
+def ratio(which, case, run):
+    # times faster than the old binary's baseline case of this person, in the same run
+    return times[("old", person(case))][run] / times[(which, case)][run]
+print(f"{'binary':<5} {'case':<40} {'median us':>9} {'x old baseline':>14}   per run (us, x)")
+order = sorted(times, key=lambda k: (person(k[1]), k[0] != "old", k[1]))
+for which, case in order:
+    t = times[(which, case)]
+    xs = [ratio(which, case, r) for r in runs]
+    per = "  ".join(f"{t[r]:.2f} {x:.2f}" for r, x in zip(runs, xs))
+    print(f"{which:<5} {case:<40} {statistics.median(t.values()):>9.2f} {statistics.median(xs):>14.2f}   {per}")
+# the median run: the run whose ratio (new AVX2 to old baseline, both people) is the median
+score = {r: statistics.mean(ratio("new", c, r) for (w, c) in times if w == "new" and c.endswith("_avx2")) for r in runs}
+median_run = sorted(runs, key=lambda r: score[r])[len(runs) // 2]
+print(f"median run: {median_run} (mean of the AVX2 cases' ratios per run: "
+      + ", ".join(f"{r}: {score[r]:.2f}" for r in runs) + ")")
 EOF
 rm -f "$results"

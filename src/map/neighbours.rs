@@ -6,15 +6,15 @@
 //! from is then the first candidate that is actually within the radius.
 //!
 //! Each cell is further split into `n x n` sub-cells (n = 16, 8 or 4: the finest whose
-//! compact table fits in about 1 MiB, else the finest that fits [`MAX_SUB_CELLS`]). A
-//! sub-cell stores its answer as a pair: a location to test and the answer when the
+//! table fits [`MAX_SUB_CELLS`]). A sub-cell stores its answer as a pair: a location to test and the answer when the
 //! test fails. Where one location is the answer for every point of the sub-cell (the
 //! usual case), or none is near any of its points, the test is a sentinel that always
 //! fails; on the edge of one location's circle the test is that location. A query is
 //! then one table load and one distance test, and its only branches (nothing near,
 //! scan) are rarely taken. Only sub-cells where more circles meet scan the cell's
 //! candidates. The table keeps each distinct pair once and a sub-cell's index into
-//! them (two bytes instead of eight), unless a map has more than 65,536 of them.
+//! them (two bytes instead of eight, so more of a large map's table stays in the
+//! caches), unless a map has more than 65,536 of them.
 
 use glam::DVec2;
 
@@ -22,11 +22,6 @@ use super::grid::GridIndex;
 
 /// Largest sub-cell table (entries of 8 bytes) one radius gets: 16 MiB.
 pub const MAX_SUB_CELLS: usize = 2 << 20;
-/// Sub-cells that a compact table (two bytes each) keeps within 1 MiB, about what
-/// stays in a core's cache: tables up to this size take the finest sub-cells, larger
-/// maps coarser ones first (fewer bytes to miss in the cache, a few more scans). On the
-/// ATC map (radius 1 m) this is 8 x 8 sub-cells instead of 16 x 16.
-const CACHED_SUB_CELLS: usize = 1 << 19;
 /// Sub-cells per cell along each axis, as powers of two, finest first.
 const SUB_SHIFTS: [u32; 3] = [4, 3, 2];
 /// Sub-cell code: no location is near any point of the sub-cell.
@@ -85,12 +80,37 @@ pub struct NeighbourTable {
 /// The compact form of the sub-cells `sub`: each one's index in a list of the distinct
 /// pairs, and that list; `(vec![], vec![])` if there are more than 65,536.
 fn compact(sub: &[SubCell]) -> (Vec<u16>, Vec<SubCell>) {
-    let mut index = std::collections::HashMap::new();
+    /// A multiplicative hash of one u64 (the pairs are few and their keys distinct: a
+    /// sub-cell costs a multiplication, not a SipHash).
+    #[derive(Default)]
+    struct PairHash(u64);
+    impl std::hash::Hasher for PairHash {
+        fn finish(&self) -> u64 {
+            self.0
+        }
+        fn write(&mut self, _: &[u8]) {
+            unreachable!("pairs hash as one u64")
+        }
+        fn write_u64(&mut self, k: u64) {
+            self.0 = (k ^ (k >> 29)).wrapping_mul(0x9E37_79B9_7F4A_7C15);
+        }
+    }
+    let mut index: std::collections::HashMap<u64, usize, _> =
+        std::collections::HashMap::with_hasher(std::hash::BuildHasherDefault::<PairHash>::default());
     let mut pairs = Vec::new();
     let mut ids = Vec::with_capacity(sub.len());
+    let mut last = None;
     for c in sub {
+        let key = (c.test as u64) << 32 | c.otherwise as u64;
+        // (runs of equal sub-cells are the rule)
+        if let Some((k, id)) = last
+            && k == key
+        {
+            ids.push(id);
+            continue;
+        }
         let next = pairs.len();
-        let id = *index.entry((c.test, c.otherwise)).or_insert(next);
+        let id = *index.entry(key).or_insert(next);
         if id == next {
             if next > u16::MAX as usize {
                 return (Vec::new(), Vec::new());
@@ -98,6 +118,7 @@ fn compact(sub: &[SubCell]) -> (Vec<u16>, Vec<SubCell>) {
             pairs.push(*c);
         }
         ids.push(id as u16);
+        last = Some((key, id as u16));
     }
     (ids, pairs)
 }
@@ -131,15 +152,9 @@ impl NeighbourTable {
         let nx = gx + 2 * margin;
         let ny = gy + 2 * margin;
         let cells = nx.checked_mul(ny).ok_or(too_large)?;
-        // the finest whose compact table fits the caches, else the finest that fits
-        let fits = |most: usize| {
-            SUB_SHIFTS
-                .iter()
-                .copied()
-                .find(|&s| cells.saturating_mul(1 << (2 * s)) <= most)
-        };
-        let shift = fits(CACHED_SUB_CELLS)
-            .or_else(|| fits(MAX_SUB_CELLS))
+        let shift = *SUB_SHIFTS
+            .iter()
+            .find(|&&s| cells.saturating_mul(1 << (2 * s)) <= MAX_SUB_CELLS)
             .ok_or(too_large)?;
         let sub_n = 1usize << shift;
         // Sizes known before the candidate lists: sub-cells, offsets, points.
