@@ -23,7 +23,7 @@
 //! (default 200 rounds of 50 calls; the cases named, beside the default one, or all:
 //! scores, speed, coast, follow, speed_scores, all, improved (the preset's options),
 //! improved_unpruned (the same without [`Options::prune`]); `baseline` runs the
-//! baseline path alone).
+//! baseline path alone; `thor1` or `atc` that person alone).
 
 use std::hint::black_box;
 use std::time::Instant;
@@ -58,7 +58,9 @@ fn main() {
         .filter(|a| !a.starts_with('-') && a.parse::<usize>().is_err())
         .collect();
     let baseline_only = only.iter().any(|o| o == "baseline");
-    only.retain(|o| o != "baseline");
+    // `thor1` or `atc`: that person alone
+    let person = only.iter().find(|o| *o == "thor1" || *o == "atc").cloned();
+    only.retain(|o| o != "baseline" && o != "thor1" && o != "atc");
     let paths: Vec<Simd> = if baseline_only || !Simd::Avx2Fma.available() {
         vec![Simd::Baseline]
     } else {
@@ -146,6 +148,9 @@ fn main() {
         ),
         ("atc_person_k20_50steps", &atc.map, &atc.case, atc.params),
     ] {
+        if person.as_deref().is_some_and(|p| !name.starts_with(p)) {
+            continue;
+        }
         let cases: Vec<(String, Case<'_>)> = paths
             .iter()
             .flat_map(|&simd| {

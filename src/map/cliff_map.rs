@@ -11,7 +11,8 @@ use super::grid::GridIndex;
 use super::info::{MapInfo, MapReport};
 use super::location::Location;
 use super::sampling_tables::{
-    DirectionComponent, FollowBlock, SpeedComponent, follow_blocks, pad_components, pad_with,
+    DirectionComponent, FollowBlock, LaneTables, SpeedComponent, follow_blocks, pad_components,
+    pad_with,
 };
 use super::tables::TableCache;
 use super::validate::{clamp_psd, validate_location};
@@ -27,6 +28,8 @@ pub struct CliffMap {
     pub(super) ratios: Vec<f64>,
     pub(super) comp_start: Vec<u32>,
     pub(super) table: Vec<DirectionComponent>,
+    /// The same in single precision, for the prediction loop's lanes.
+    pub(super) lane: LaneTables,
     /// Speeds given the direction draw, indexed like `table`.
     pub(super) speed: Vec<SpeedComponent>,
     /// Components for [`CliffMap::direction_following`] ([`follow_blocks`]).
@@ -55,6 +58,7 @@ impl Clone for CliffMap {
             ratios: self.ratios.clone(),
             comp_start: self.comp_start.clone(),
             table: self.table.clone(),
+            lane: self.lane.clone(),
             speed: self.speed.clone(),
             follow_start: self.follow_start.clone(),
             follow: self.follow.clone(),
@@ -175,6 +179,7 @@ impl CliffMap {
         let (follow_start, follow) = follow_blocks(&locations);
         let step_density = density::StepDensities::new(&density_start, &density);
         let (comp_start, table) = pad_components(comp_start, table);
+        let lane = LaneTables::new(&comp_start, &table);
         Ok(Self {
             locations,
             grid,
@@ -182,6 +187,7 @@ impl CliffMap {
             ratios,
             comp_start,
             table,
+            lane,
             speed,
             follow_start,
             follow,

@@ -82,6 +82,8 @@ pub use location::{Component, Location};
 pub use lookup::Lookup;
 pub use neighbours::NeighbourTable;
 pub use neighbours::TableError;
+#[cfg(target_arch = "x86_64")]
+pub(crate) use neighbours::{Probe8, lane_mask};
 pub use sampling::DirectionSampler;
 pub use sampling_tables::FollowWeights;
 pub use score::{ScoreParams, ScoreReport, score};

@@ -6,13 +6,15 @@
 //! from is then the first candidate that is actually within the radius.
 //!
 //! Each cell is further split into `n x n` sub-cells (n = 16, 8 or 4: the finest whose
-//! table fits [`MAX_SUB_CELLS`]). A sub-cell stores its answer as a pair: a location to
-//! test and the answer when the test fails. Where one location is the answer for every
-//! point of the sub-cell (the usual case), or none is near any of its points, the test
-//! is a sentinel that always fails; on the edge of one location's circle the test is
-//! that location. A query is then one table load and one distance test, and its only
-//! branches (nothing near, scan) are rarely taken. Only sub-cells where more circles
-//! meet scan the cell's candidates.
+//! table fits [`MAX_SUB_CELLS`]). A sub-cell stores its answer as a pair: a location to test and the answer when the
+//! test fails. Where one location is the answer for every point of the sub-cell (the
+//! usual case), or none is near any of its points, the test is a sentinel that always
+//! fails; on the edge of one location's circle the test is that location. A query is
+//! then one table load and one distance test, and its only branches (nothing near,
+//! scan) are rarely taken. Only sub-cells where more circles meet scan the cell's
+//! candidates. The table keeps each distinct pair once and a sub-cell's index into
+//! them (two bytes instead of eight, so more of a large map's table stays in the
+//! caches), unless a map has more than 65,536 of them.
 
 use glam::DVec2;
 
@@ -30,6 +32,7 @@ const SCAN: u32 = u32::MAX - 1;
 /// A sub-cell's answer: `test` if it is strictly within the radius of the query point,
 /// else `otherwise` (a location index, [`NONE_NEAR`] or [`SCAN`]).
 #[derive(Debug, Clone, Copy)]
+#[repr(C)] // (read by gathers: `test`, then `otherwise`)
 struct SubCell {
     /// Index into [`NeighbourTable::points`]; the last point is a sentinel at infinity.
     test: u32,
@@ -65,7 +68,59 @@ pub struct NeighbourTable {
     candidates: Vec<Candidate>,
     /// The map's location positions, then the sentinel (never within the radius).
     points: Vec<DVec2>,
+    /// The sub-cells' pairs, unless the table is compact (`ids` not empty).
     sub: Vec<SubCell>,
+    /// Compact tables (the usual: at most 65,536 distinct pairs): each sub-cell's pair
+    /// as its index in `pairs`, a quarter of the bytes, so more of a large map's table
+    /// stays in the caches.
+    ids: Vec<u16>,
+    pairs: Vec<SubCell>,
+}
+
+/// The compact form of the sub-cells `sub`: each one's index in a list of the distinct
+/// pairs, and that list; `(vec![], vec![])` if there are more than 65,536.
+fn compact(sub: &[SubCell]) -> (Vec<u16>, Vec<SubCell>) {
+    /// A multiplicative hash of one u64 (the pairs are few and their keys distinct: a
+    /// sub-cell costs a multiplication, not a SipHash).
+    #[derive(Default)]
+    struct PairHash(u64);
+    impl std::hash::Hasher for PairHash {
+        fn finish(&self) -> u64 {
+            self.0
+        }
+        fn write(&mut self, _: &[u8]) {
+            unreachable!("pairs hash as one u64")
+        }
+        fn write_u64(&mut self, k: u64) {
+            self.0 = (k ^ (k >> 29)).wrapping_mul(0x9E37_79B9_7F4A_7C15);
+        }
+    }
+    let mut index: std::collections::HashMap<u64, usize, _> =
+        std::collections::HashMap::with_hasher(std::hash::BuildHasherDefault::<PairHash>::default());
+    let mut pairs = Vec::new();
+    let mut ids = Vec::with_capacity(sub.len());
+    let mut last = None;
+    for c in sub {
+        let key = (c.test as u64) << 32 | c.otherwise as u64;
+        // (runs of equal sub-cells are the rule)
+        if let Some((k, id)) = last
+            && k == key
+        {
+            ids.push(id);
+            continue;
+        }
+        let next = pairs.len();
+        let id = *index.entry(key).or_insert(next);
+        if id == next {
+            if next > u16::MAX as usize {
+                return (Vec::new(), Vec::new());
+            }
+            pairs.push(*c);
+        }
+        ids.push(id as u16);
+        last = Some((key, id as u16));
+    }
+    (ids, pairs)
 }
 
 impl NeighbourTable {
@@ -103,7 +158,8 @@ impl NeighbourTable {
             .ok_or(too_large)?;
         let sub_n = 1usize << shift;
         // Sizes known before the candidate lists: sub-cells, offsets, points.
-        let fixed = cells * sub_n * sub_n * size_of::<SubCell>()
+        // (a compact table's sub-cells: checked again once built)
+        let fixed = cells * sub_n * sub_n * size_of::<u16>()
             + (cells + 1) * size_of::<u32>()
             + (positions.len() + 1) * size_of::<DVec2>();
         if fixed > max_bytes {
@@ -195,7 +251,11 @@ impl NeighbourTable {
                 sub.push(SubCell { test, otherwise });
             }
         }
-        Ok(Self {
+        let (ids, pairs) = compact(&sub);
+        if !ids.is_empty() {
+            sub = Vec::new();
+        }
+        let table = Self {
             radius,
             r2,
             origin,
@@ -213,7 +273,13 @@ impl NeighbourTable {
                 .chain([DVec2::splat(f64::INFINITY)])
                 .collect(),
             sub,
-        })
+            ids,
+            pairs,
+        };
+        if table.memory_bytes() > max_bytes {
+            return Err(too_large);
+        }
+        Ok(table)
     }
 
     /// The radius this table answers for.
@@ -227,6 +293,18 @@ impl NeighbourTable {
             + self.candidates.len() * size_of::<Candidate>()
             + self.points.len() * size_of::<DVec2>()
             + self.sub.len() * size_of::<SubCell>()
+            + self.ids.len() * size_of::<u16>()
+            + self.pairs.len() * size_of::<SubCell>()
+    }
+
+    /// Sub-cell `i`'s pair.
+    #[inline(always)]
+    fn sub_cell(&self, i: usize) -> SubCell {
+        if self.ids.is_empty() {
+            self.sub[i]
+        } else {
+            self.pairs[self.ids[i] as usize]
+        }
     }
 
     /// The longest candidate list of a cell: the most distance tests one query can make.
@@ -253,7 +331,7 @@ impl NeighbourTable {
         }
         // In range (checked above), so the truncating conversions are exact floors.
         let (sx, sy) = (f.x as u32 as usize, f.y as u32 as usize);
-        let cell = self.sub[sy * self.snx + sx];
+        let cell = self.sub_cell(sy * self.snx + sx);
         let test = self.points[cell.test as usize];
         // The pair's location if the point is within its circle, else the fallback.
         let code = if test.distance_squared(p) < self.r2 {
@@ -268,6 +346,188 @@ impl NeighbourTable {
         }
     }
 
+    /// The first half of [`best_near`](Self::best_near) for eight points, `x[h]` and
+    /// `y[h]` holding lanes `4 h..4 h + 4`: which lanes are within the table's range,
+    /// and the pairs of their sub-cells (lanes outside read sub-cell 0).
+    /// [`resolve8`](Self::resolve8) finishes the lookup; a caller with several groups of
+    /// eight probes them all first, so that the sub-cells' cache misses (large maps)
+    /// overlap.
+    ///
+    /// # Safety
+    /// The processor must have AVX2 and FMA.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    #[inline]
+    pub(crate) unsafe fn probe8(
+        &self,
+        x: [std::arch::x86_64::__m256d; 2],
+        y: [std::arch::x86_64::__m256d; 2],
+    ) -> Probe8 {
+        use std::arch::x86_64::*;
+        let (ox, oy) = (_mm256_set1_pd(self.origin.x), _mm256_set1_pd(self.origin.y));
+        let (inv, half) = (_mm256_set1_pd(self.inv_sub), _mm256_set1_pd(self.half_sub));
+        let (dx, dy) = (
+            _mm256_set1_pd(self.sub_dims.x),
+            _mm256_set1_pd(self.sub_dims.y),
+        );
+        let zero = _mm256_setzero_pd();
+        let mut inside = 0u32;
+        let mut sx = [_mm_setzero_si128(); 2];
+        let mut sy = [_mm_setzero_si128(); 2];
+        for h in 0..2 {
+            // (p - origin) * inv_sub + half_sub, as the scalar lookup rounds it
+            let fx = _mm256_add_pd(_mm256_mul_pd(_mm256_sub_pd(x[h], ox), inv), half);
+            let fy = _mm256_add_pd(_mm256_mul_pd(_mm256_sub_pd(y[h], oy), inv), half);
+            let ok = _mm256_and_pd(
+                _mm256_and_pd(
+                    _mm256_cmp_pd::<_CMP_GE_OQ>(fx, zero),
+                    _mm256_cmp_pd::<_CMP_GE_OQ>(fy, zero),
+                ),
+                _mm256_and_pd(
+                    _mm256_cmp_pd::<_CMP_LT_OQ>(fx, dx),
+                    _mm256_cmp_pd::<_CMP_LT_OQ>(fy, dy),
+                ),
+            );
+            inside |= (_mm256_movemask_pd(ok) as u32) << (4 * h);
+            sx[h] = _mm256_cvttpd_epi32(fx);
+            sy[h] = _mm256_cvttpd_epi32(fy);
+        }
+        let sx = _mm256_set_m128i(sx[1], sx[0]);
+        let sy = _mm256_set_m128i(sy[1], sy[0]);
+        let cell = _mm256_and_si256(
+            _mm256_add_epi32(
+                _mm256_mullo_epi32(sy, _mm256_set1_epi32(self.snx as i32)),
+                sx,
+            ),
+            lane_mask(inside),
+        );
+        // (eight loads of a pair each, rather than two gathers: the sub-cells of large
+        // maps miss the caches, and a gather waits for its slowest lane)
+        let mut cells = [0u32; 8];
+        let mut pairs = [0u64; 8];
+        // SAFETY: eight lanes; every lane's cell is within the sub-cell table (checked
+        // range, or 0), a `SubCell` is two u32 (`repr(C)`) read as one u64.
+        let (test, otherwise) = unsafe {
+            _mm256_storeu_si256(cells.as_mut_ptr() as *mut __m256i, cell);
+            if self.ids.is_empty() {
+                let sub = self.sub.as_ptr() as *const u64;
+                for l in 0..8 {
+                    pairs[l] = sub.add(cells[l] as usize).read_unaligned();
+                }
+            } else {
+                let (ids, list) = (self.ids.as_ptr(), self.pairs.as_ptr() as *const u64);
+                for l in 0..8 {
+                    pairs[l] = list
+                        .add(*ids.add(cells[l] as usize) as usize)
+                        .read_unaligned();
+                }
+            }
+            let lo = _mm256_castsi256_ps(_mm256_loadu_si256(pairs.as_ptr() as *const __m256i));
+            let hi =
+                _mm256_castsi256_ps(_mm256_loadu_si256(pairs.as_ptr().add(4) as *const __m256i));
+            // (t0 o0 t1 o1 t2 o2 t3 o3), (t4 ..): even words are tests, odd ones the rest
+            let even = _mm256_shuffle_ps::<0b10_00_10_00>(lo, hi);
+            let odd = _mm256_shuffle_ps::<0b11_01_11_01>(lo, hi);
+            (
+                _mm256_permute4x64_epi64::<0b11_01_10_00>(_mm256_castps_si256(even)),
+                _mm256_permute4x64_epi64::<0b11_01_10_00>(_mm256_castps_si256(odd)),
+            )
+        };
+        Probe8 {
+            inside,
+            test,
+            otherwise,
+        }
+    }
+
+    /// The second half of the lookup of eight points ([`probe8`](Self::probe8)): the bits
+    /// of the lanes that have a location near (bit `l` for lane `l`), and those
+    /// locations (other lanes' are meaningless): [`best_near`](Self::best_near)'s answers,
+    /// with the same arithmetic (the scans, rare, lane by lane).
+    ///
+    /// # Safety
+    /// The processor must have AVX2 and FMA, and `probe` be this table's probe of the
+    /// same points.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    #[inline]
+    pub(crate) unsafe fn resolve8(
+        &self,
+        probe: &Probe8,
+        x: [std::arch::x86_64::__m256d; 2],
+        y: [std::arch::x86_64::__m256d; 2],
+    ) -> (u32, std::arch::x86_64::__m256i) {
+        use std::arch::x86_64::*;
+        let Probe8 {
+            inside,
+            test,
+            otherwise,
+        } = *probe;
+        if inside == 0 {
+            return (0, _mm256_setzero_si256());
+        }
+        let mut tests = [0u32; 8];
+        let mut xy = [[0.0f64; 2]; 8];
+        // SAFETY: eight lanes; `test` indexes `points` (a location or the sentinel).
+        unsafe {
+            _mm256_storeu_si256(tests.as_mut_ptr() as *mut __m256i, test);
+            for l in 0..8 {
+                let p = *self.points.as_ptr().add(tests[l] as usize);
+                xy[l] = [p.x, p.y];
+            }
+        }
+        let r2 = _mm256_set1_pd(self.r2);
+        let mut near = 0u32;
+        for h in 0..2 {
+            // SAFETY: `xy` holds eight pairs.
+            let (tx, ty) = unsafe {
+                let a = _mm256_loadu_pd(xy.as_ptr().add(4 * h) as *const f64);
+                let b = _mm256_loadu_pd(xy.as_ptr().add(4 * h + 2) as *const f64);
+                // (x0 y0 x1 y1), (x2 y2 x3 y3) -> (x0 x1 x2 x3), (y0 y1 y2 y3)
+                let xs = _mm256_permute4x64_pd::<0b11_01_10_00>(_mm256_unpacklo_pd(a, b));
+                let ys = _mm256_permute4x64_pd::<0b11_01_10_00>(_mm256_unpackhi_pd(a, b));
+                (xs, ys)
+            };
+            // test.distance_squared(p): (t - p).x^2 + (t - p).y^2
+            let ddx = _mm256_sub_pd(tx, x[h]);
+            let ddy = _mm256_sub_pd(ty, y[h]);
+            let d2 = _mm256_add_pd(_mm256_mul_pd(ddx, ddx), _mm256_mul_pd(ddy, ddy));
+            near |= (_mm256_movemask_pd(_mm256_cmp_pd::<_CMP_LT_OQ>(d2, r2)) as u32) << (4 * h);
+        }
+        let code = _mm256_blendv_epi8(otherwise, test, lane_mask(near));
+        let none = _mm256_cmpeq_epi32(code, _mm256_set1_epi32(NONE_NEAR as i32));
+        let scan = _mm256_cmpeq_epi32(code, _mm256_set1_epi32(SCAN as i32));
+        let missing = _mm256_movemask_ps(_mm256_castsi256_ps(_mm256_or_si256(none, scan))) as u32;
+        let mut found = inside & !missing;
+        let scans = inside & _mm256_movemask_ps(_mm256_castsi256_ps(scan)) as u32;
+        if scans == 0 {
+            return (found, code);
+        }
+        // where several circles meet: the whole scalar lookup, lane by lane
+        let mut codes = [0u32; 8];
+        let (mut xs, mut ys) = ([0.0f64; 8], [0.0f64; 8]);
+        // SAFETY: the arrays hold eight lanes each.
+        unsafe {
+            _mm256_storeu_si256(codes.as_mut_ptr() as *mut __m256i, code);
+            _mm256_storeu_pd(xs.as_mut_ptr(), x[0]);
+            _mm256_storeu_pd(xs.as_mut_ptr().add(4), x[1]);
+            _mm256_storeu_pd(ys.as_mut_ptr(), y[0]);
+            _mm256_storeu_pd(ys.as_mut_ptr().add(4), y[1]);
+        }
+        for l in 0..8 {
+            if scans & (1 << l) != 0
+                && let Some(i) = self.best_near(DVec2::new(xs[l], ys[l]))
+            {
+                codes[l] = i as u32;
+                found |= 1 << l;
+            }
+        }
+        // SAFETY: eight lanes.
+        (found, unsafe {
+            _mm256_loadu_si256(codes.as_ptr() as *const __m256i)
+        })
+    }
+
     /// The first candidate of sub-cell `(sx, sy)`'s cell within the radius of `p`.
     #[inline(never)]
     fn scan(&self, p: DVec2, sx: usize, sy: usize) -> Option<usize> {
@@ -278,6 +538,41 @@ impl NeighbourTable {
             .find(|c| c.position.distance_squared(p) < self.r2)
             .map(|c| c.index as usize)
     }
+}
+
+/// Eight points' sub-cells ([`NeighbourTable::probe8`]).
+#[cfg(target_arch = "x86_64")]
+#[derive(Clone, Copy)]
+pub(crate) struct Probe8 {
+    /// The lanes within the table's range (bit `l` for lane `l`).
+    inside: u32,
+    test: std::arch::x86_64::__m256i,
+    otherwise: std::arch::x86_64::__m256i,
+}
+
+#[cfg(target_arch = "x86_64")]
+impl Default for Probe8 {
+    /// No lane within range.
+    fn default() -> Self {
+        // SAFETY: all-zero bits are valid for integer vectors.
+        let zero = unsafe { std::mem::zeroed() };
+        Probe8 {
+            inside: 0,
+            test: zero,
+            otherwise: zero,
+        }
+    }
+}
+
+/// The 32-bit lanes whose bits are set in `bits` (lane `l` for bit `l`): all ones,
+/// the others zero.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+#[inline]
+pub(crate) fn lane_mask(bits: u32) -> std::arch::x86_64::__m256i {
+    use std::arch::x86_64::*;
+    let each = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
+    _mm256_cmpeq_epi32(_mm256_and_si256(_mm256_set1_epi32(bits as i32), each), each)
 }
 
 /// Why a neighbour table was not built.

@@ -11,6 +11,7 @@ use super::sampling_tables::{
     DirectionComponent, FollowWeights, count_below, follow_cumulative, follow_cumulative_fixed,
     follow_mode_of, four_uniforms_normal,
 };
+use crate::math::simd::MulAdd;
 use crate::math::wrap_2pi;
 
 impl CliffMap {
@@ -197,5 +198,157 @@ impl Distribution<f64> for DirectionSampler<'_> {
     #[inline(always)]
     fn sample<R: Rng + ?Sized>(&self, rng: &mut R) -> f64 {
         wrap_2pi(self.sample_unwrapped(rng))
+    }
+}
+
+/// The draws of the prediction loop's lanes: each from a uniform `u` in `[0, 1)` that
+/// picks the component and a standard normal `z` (the loop makes both from its
+/// generators' words, `crate::math::lane_rng`), in single precision, with the
+/// multiply-adds of `M` (fused on the AVX2 path). Directions come unwrapped.
+impl CliffMap {
+    /// The entry of the sampling tables that `u` picks at location `index`: a component
+    /// by weight.
+    #[inline(always)]
+    fn lane_pick(&self, index: usize, u: f32) -> usize {
+        let (a, n) = match self.lane.width {
+            Some(w) => (index * w, w),
+            None => {
+                let a = self.comp_start[index] as usize;
+                (a, self.comp_start[index + 1] as usize - a)
+            }
+        };
+        // branch-free: the number of cumulative weights at or below u
+        let i = self.lane.cum[a..a + n]
+            .iter()
+            .map(|&c| (u >= c) as usize)
+            .sum::<usize>();
+        // (padding repeats the last component)
+        a + i.min(n - 1)
+    }
+
+    /// A direction drawn at location `index` (as [`direction_at`](Self::direction_at)).
+    #[inline(always)]
+    pub(crate) fn lane_direction<M: MulAdd>(&self, index: usize, u: f32, z: f32) -> f32 {
+        let e = self.lane_pick(index, u);
+        M::madd32(self.lane.sigma[e], z, self.lane.mu[e])
+    }
+
+    /// A velocity drawn at location `index` (as [`velocity_at`](Self::velocity_at)),
+    /// the speed's noise from the word `noise` (a sum of four uniforms).
+    #[inline(always)]
+    pub(crate) fn lane_velocity<M: MulAdd>(
+        &self,
+        index: usize,
+        u: f32,
+        z: f32,
+        noise: u32,
+    ) -> (f32, f64) {
+        let e = self.lane_pick(index, u);
+        let sp = &self.speed[e];
+        (
+            M::madd32(self.lane.sigma[e], z, self.lane.mu[e]),
+            (sp.mean + sp.slope * z + sp.sd * four_uniforms_normal(noise)).max(0.0) as f64,
+        )
+    }
+
+    /// A direction drawn at location `index` with its follow weights (as
+    /// [`draw_following`](Self::draw_following)).
+    #[inline(always)]
+    pub(crate) fn lane_following<M: MulAdd>(
+        &self,
+        index: usize,
+        weights: &FollowWeights,
+        u: f32,
+        z: f32,
+    ) -> f32 {
+        let a = self.comp_start[index] as usize;
+        let b = self.comp_start[index + 1] as usize;
+        let e = a + count_below(&weights.0, u).min(b - a - 1);
+        M::madd32(self.lane.sigma[e], z, self.lane.mu[e])
+    }
+
+    /// A direction drawn at location `index` for the heading `(ux, uy)` (as
+    /// [`direction_following`](Self::direction_following), for maps whose follow weights
+    /// do not fit [`FollowWeights`]).
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)] // the draw's inputs
+    pub(crate) fn lane_direction_following<M: MulAdd>(
+        &self,
+        index: usize,
+        ux: f32,
+        uy: f32,
+        kappa: f32,
+        u: f32,
+        z: f32,
+    ) -> f32 {
+        let a = self.comp_start[index] as usize;
+        let b = self.comp_start[index + 1] as usize;
+        let blocks =
+            &self.follow[self.follow_start[index] as usize..self.follow_start[index + 1] as usize];
+        let below = if blocks.len() <= 2 {
+            count_below(&follow_cumulative::<8>(blocks, ux, uy, kappa), u)
+        } else {
+            count_below(
+                &follow_cumulative::<MAX_COMPONENTS>(blocks, ux, uy, kappa),
+                u,
+            )
+        };
+        let e = a + below.min(b - a - 1);
+        M::madd32(self.lane.sigma[e], z, self.lane.mu[e])
+    }
+
+    /// The entries every location's draw reads, where all locations have the same
+    /// number (the padded maps): then [`lane_direction8`](Self::lane_direction8) draws.
+    #[inline]
+    pub(crate) fn lane_width(&self) -> Option<usize> {
+        self.lane.width
+    }
+
+    /// [`lane_direction`](Self::lane_direction)`::<Fused>` at the locations `loc` of
+    /// `V` registers of eight lanes (the same bits), reading the tables with gathers.
+    ///
+    /// # Safety
+    /// The processor must have AVX2 and FMA, `width` must be
+    /// [`lane_width`](Self::lane_width), and every lane of `loc` a location of the map.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    #[inline]
+    pub(crate) unsafe fn lane_direction8<const V: usize>(
+        &self,
+        width: usize,
+        loc: &[std::arch::x86_64::__m256i; V],
+        u: &[std::arch::x86_64::__m256; V],
+        z: &[std::arch::x86_64::__m256; V],
+    ) -> [std::arch::x86_64::__m256; V] {
+        use crate::math::fastmath::x8::per;
+        use std::arch::x86_64::*;
+        debug_assert_eq!(self.lane.width, Some(width));
+        let w = _mm256_set1_epi32(width as i32);
+        let row = per!(V, |v| _mm256_mullo_epi32(loc[v], w));
+        let cum = self.lane.cum.as_ptr();
+        let mut count = [_mm256_setzero_si256(); V];
+        for j in 0..width {
+            for v in 0..V {
+                // SAFETY: row + j < locations * width = the table's length.
+                let c = unsafe { _mm256_i32gather_ps::<4>(cum.add(j), row[v]) };
+                // (a true comparison is all ones: -1)
+                let below = _mm256_castps_si256(_mm256_cmp_ps::<_CMP_GE_OQ>(u[v], c));
+                count[v] = _mm256_sub_epi32(count[v], below);
+            }
+        }
+        let last = _mm256_set1_epi32(width as i32 - 1);
+        let e = per!(V, |v| _mm256_add_epi32(
+            row[v],
+            _mm256_min_epi32(count[v], last)
+        ));
+        // SAFETY: e < row + width, within the tables.
+        let mu = per!(V, |v| unsafe {
+            _mm256_i32gather_ps::<4>(self.lane.mu.as_ptr(), e[v])
+        });
+        // SAFETY: as above.
+        let sigma = per!(V, |v| unsafe {
+            _mm256_i32gather_ps::<4>(self.lane.sigma.as_ptr(), e[v])
+        });
+        per!(V, |v| _mm256_fmadd_ps(sigma[v], z[v], mu[v]))
     }
 }

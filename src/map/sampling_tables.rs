@@ -4,6 +4,7 @@
 //! hot loop reads whole blocks.
 
 use super::location::Location;
+use crate::math::wrap_2pi;
 
 /// Per-component sampling table entry, precomputed at build time.
 #[derive(Debug, Clone, Copy)]
@@ -316,6 +317,39 @@ pub(super) fn count_below(cum: &[f32], u: f32) -> usize {
 /// ([`CliffMap::follow_weights`]).
 #[derive(Debug, Clone, Copy, Default)]
 pub struct FollowWeights(pub(super) [f32; 8]);
+
+/// The direction draw's tables in single precision, for the prediction loop's lanes
+/// (`CliffMap::lane_direction` and the AVX2 form): entry by entry parallel to the map's
+/// sampling table, padding included, and the width every location's entries share where
+/// they share one (so location `i`'s entries start at `i * width`, and eight lanes read
+/// them with gathers).
+#[derive(Debug, Clone, Default)]
+pub(crate) struct LaneTables {
+    /// The entries per location, where every location has the same number.
+    pub(crate) width: Option<usize>,
+    /// Cumulative weights (padding: infinite, never chosen).
+    pub(crate) cum: Vec<f32>,
+    /// Mean directions, wrapped to `[0, 2pi)`.
+    pub(crate) mu: Vec<f32>,
+    /// Spreads of the directions.
+    pub(crate) sigma: Vec<f32>,
+}
+
+impl LaneTables {
+    /// The tables of a (padded) sampling table whose location `i` holds the entries
+    /// `comp_start[i]..comp_start[i + 1]`.
+    pub(super) fn new(comp_start: &[u32], table: &[DirectionComponent]) -> Self {
+        let mut widths = comp_start.windows(2).map(|w| (w[1] - w[0]) as usize);
+        let first = widths.next().unwrap_or(0);
+        let width = (first > 0 && widths.all(|w| w == first)).then_some(first);
+        LaneTables {
+            width,
+            cum: table.iter().map(|e| e.cum_weight as f32).collect(),
+            mu: table.iter().map(|e| wrap_2pi(e.mu) as f32).collect(),
+            sigma: table.iter().map(|e| e.sigma as f32).collect(),
+        }
+    }
+}
 
 /// Widest mixture whose locations get padded (see [`pad_components`]): more comparisons
 /// per draw than this cost more than the mispredicted branches they save.

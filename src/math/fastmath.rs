@@ -223,6 +223,171 @@ pub(crate) fn exp_neg_f32_with<M: MulAdd>(x: f32) -> f32 {
     if x < -87.0 { 0.0 } else { y }
 }
 
+/// The AVX2 forms of the single-precision kernels on `V` registers of eight lanes:
+/// each operation for all registers before the next, so that the registers' chains
+/// of dependent operations overlap. Each gives the bits of its scalar form with fused
+/// multiply-adds (`..._with::<Fused>`) for finite inputs.
+#[cfg(target_arch = "x86_64")]
+pub(crate) mod x8 {
+    use std::arch::x86_64::*;
+
+    /// `[f(0), .., f(V - 1)]`, written out (a loop the compiler unrolls: the
+    /// registers' operations interleave).
+    macro_rules! per {
+        ($V:expr, |$v:ident| $e:expr) => {{
+            // SAFETY: all-zero bits are a valid vector (overwritten below).
+            let mut out = [unsafe { std::mem::zeroed() }; $V];
+            for $v in 0..$V {
+                out[$v] = $e;
+            }
+            out
+        }};
+    }
+    pub(crate) use per;
+
+    /// [`sin_cos_f32_with`](super::sin_cos_f32_with)`::<Fused>` of `V` registers.
+    #[target_feature(enable = "avx2,fma")]
+    #[inline]
+    pub(crate) fn sin_cos<const V: usize>(x: [__m256; V]) -> ([__m256; V], [__m256; V]) {
+        const MAGIC: f32 = 12_582_912.0;
+        const PIO2_HI: f32 = 1.570_796_4;
+        const PIO2_LO: f32 = -4.371_139e-8;
+        let c = _mm256_set1_ps;
+        let t = per!(V, |v| _mm256_add_ps(
+            _mm256_mul_ps(x[v], c(std::f32::consts::FRAC_2_PI)),
+            c(MAGIC)
+        ));
+        let nk = per!(V, |v| _mm256_xor_ps(_mm256_sub_ps(t[v], c(MAGIC)), c(-0.0)));
+        let r = per!(V, |v| _mm256_fmadd_ps(nk[v], c(PIO2_HI), x[v]));
+        let r = per!(V, |v| _mm256_fmadd_ps(nk[v], c(PIO2_LO), r[v]));
+        let z = per!(V, |v| _mm256_mul_ps(r[v], r[v]));
+        let z2 = per!(V, |v| _mm256_mul_ps(z[v], z[v]));
+        let s1 = per!(V, |v| _mm256_fmadd_ps(
+            z[v],
+            c(1.0 / 362_880.0),
+            c(-1.0 / 5040.0)
+        ));
+        let s0 = per!(V, |v| _mm256_fmadd_ps(z[v], c(1.0 / 120.0), c(-1.0 / 6.0)));
+        let c1 = per!(V, |v| _mm256_fmadd_ps(
+            z[v],
+            c(-1.0 / 3_628_800.0),
+            c(1.0 / 40_320.0)
+        ));
+        let c0 = per!(V, |v| _mm256_fmadd_ps(z[v], c(-1.0 / 720.0), c(1.0 / 24.0)));
+        let ps = per!(V, |v| _mm256_fmadd_ps(z2[v], s1[v], s0[v]));
+        let pc = per!(V, |v| _mm256_fmadd_ps(z2[v], c1[v], c0[v]));
+        let rz = per!(V, |v| _mm256_mul_ps(r[v], z[v]));
+        let s = per!(V, |v| _mm256_fmadd_ps(rz[v], ps[v], r[v]));
+        let half = per!(V, |v| _mm256_fmadd_ps(c(-0.5), z[v], c(1.0)));
+        let co = per!(V, |v| _mm256_fmadd_ps(z2[v], pc[v], half[v]));
+        // quadrants 1 and 3 swap; 2 and 3 negate the sine, 1 and 2 the cosine
+        let one = _mm256_set1_epi32(1);
+        let q = per!(V, |v| _mm256_and_si256(
+            _mm256_castps_si256(t[v]),
+            _mm256_set1_epi32(3)
+        ));
+        let swap = per!(V, |v| _mm256_castsi256_ps(_mm256_cmpeq_epi32(
+            _mm256_and_si256(q[v], one),
+            one
+        )));
+        let sin = per!(V, |v| _mm256_xor_ps(
+            _mm256_blendv_ps(s[v], co[v], swap[v]),
+            _mm256_castsi256_ps(_mm256_slli_epi32::<31>(_mm256_srli_epi32::<1>(q[v])))
+        ));
+        let cos = per!(V, |v| _mm256_xor_ps(
+            _mm256_blendv_ps(co[v], s[v], swap[v]),
+            _mm256_castsi256_ps(_mm256_slli_epi32::<31>(_mm256_srli_epi32::<1>(
+                _mm256_add_epi32(q[v], one)
+            )))
+        ));
+        (sin, cos)
+    }
+
+    /// [`acos_f32_with`](super::acos_f32_with)`::<Fused>` of `V` registers.
+    #[target_feature(enable = "avx2,fma")]
+    #[inline]
+    pub(crate) fn acos<const V: usize>(x: [__m256; V]) -> [__m256; V] {
+        let c = _mm256_set1_ps;
+        let x = per!(V, |v| _mm256_min_ps(_mm256_max_ps(x[v], c(-1.0)), c(1.0)));
+        let a = per!(V, |v| _mm256_andnot_ps(c(-0.0), x[v]));
+        let a2 = per!(V, |v| _mm256_mul_ps(a[v], a[v]));
+        let a4 = per!(V, |v| _mm256_mul_ps(a2[v], a2[v]));
+        let p3 = per!(V, |v| _mm256_fmadd_ps(
+            a[v],
+            c(-0.001_262_491_1),
+            c(0.006_670_09)
+        ));
+        let p2 = per!(V, |v| _mm256_fmadd_ps(
+            a[v],
+            c(-0.017_088_126),
+            c(0.030_891_88)
+        ));
+        let p1 = per!(V, |v| _mm256_fmadd_ps(
+            a[v],
+            c(-0.050_174_303),
+            c(0.088_978_99)
+        ));
+        let p0 = per!(V, |v| _mm256_fmadd_ps(
+            a[v],
+            c(-0.214_598_8),
+            c(1.570_796_3)
+        ));
+        let hi = per!(V, |v| _mm256_fmadd_ps(a2[v], p3[v], p2[v]));
+        let lo = per!(V, |v| _mm256_fmadd_ps(a2[v], p1[v], p0[v]));
+        let p = per!(V, |v| _mm256_fmadd_ps(a4[v], hi[v], lo[v]));
+        let r = per!(V, |v| _mm256_mul_ps(
+            _mm256_sqrt_ps(_mm256_sub_ps(c(1.0), a[v])),
+            p[v]
+        ));
+        per!(V, |v| _mm256_blendv_ps(
+            r[v],
+            _mm256_sub_ps(c(std::f32::consts::PI), r[v]),
+            _mm256_cmp_ps::<_CMP_LT_OQ>(x[v], c(0.0))
+        ))
+    }
+
+    /// [`exp_neg_f32_with`](super::exp_neg_f32_with)`::<Fused>` of `V` registers.
+    #[target_feature(enable = "avx2,fma")]
+    #[inline]
+    pub(crate) fn exp_neg<const V: usize>(x: [__m256; V]) -> [__m256; V] {
+        const MAGIC: f32 = 12_582_912.0;
+        const LN2_HI: f32 = 0.693_145_75;
+        const LN2_LO: f32 = 1.428_606_8e-6;
+        let c = _mm256_set1_ps;
+        // (a zero of either sign gives 1 either way)
+        let xc = per!(V, |v| _mm256_min_ps(_mm256_max_ps(x[v], c(-87.0)), c(0.0)));
+        let t = per!(V, |v| _mm256_add_ps(
+            _mm256_mul_ps(xc[v], c(std::f32::consts::LOG2_E)),
+            c(MAGIC)
+        ));
+        let nk = per!(V, |v| _mm256_xor_ps(_mm256_sub_ps(t[v], c(MAGIC)), c(-0.0)));
+        let r = per!(V, |v| _mm256_fmadd_ps(nk[v], c(LN2_HI), xc[v]));
+        let r = per!(V, |v| _mm256_fmadd_ps(nk[v], c(LN2_LO), r[v]));
+        let r2 = per!(V, |v| _mm256_mul_ps(r[v], r[v]));
+        let r4 = per!(V, |v| _mm256_mul_ps(r2[v], r2[v]));
+        let h0 = per!(V, |v| _mm256_fmadd_ps(r[v], c(1.0 / 120.0), c(1.0 / 24.0)));
+        let l0 = per!(V, |v| _mm256_fmadd_ps(r[v], c(1.0 / 6.0), c(0.5)));
+        let hi = per!(V, |v| _mm256_fmadd_ps(r2[v], c(1.0 / 720.0), h0[v]));
+        let lo = per!(V, |v| _mm256_fmadd_ps(
+            r2[v],
+            l0[v],
+            _mm256_add_ps(c(1.0), r[v])
+        ));
+        let p = per!(V, |v| _mm256_fmadd_ps(r4[v], hi[v], lo[v]));
+        let magic = _mm256_set1_epi32(MAGIC.to_bits() as i32);
+        let scale = per!(V, |v| _mm256_castsi256_ps(_mm256_slli_epi32::<23>(
+            _mm256_add_epi32(
+                _mm256_sub_epi32(_mm256_castps_si256(t[v]), magic),
+                _mm256_set1_epi32(127)
+            )
+        )));
+        per!(V, |v| _mm256_andnot_ps(
+            _mm256_cmp_ps::<_CMP_LT_OQ>(x[v], c(-87.0)),
+            _mm256_mul_ps(p[v], scale[v])
+        ))
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -299,5 +464,53 @@ mod tests {
     fn fused_single_precision_kernels_match_libm() {
         // (software fused multiply-adds where the processor has none: the same bits)
         single_precision_kernels_within_bounds::<crate::math::simd::Fused>();
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn the_avx2_kernels_give_the_fused_bits() {
+        use crate::math::simd::Fused;
+        use std::arch::x86_64::*;
+        if !crate::math::Simd::Avx2Fma.available() {
+            return;
+        }
+        let inputs: Vec<f32> = (-40_000i32..=40_000)
+            .map(|i| i as f32 * 2.5e-4)
+            .chain([0.0, -0.0, 1.0, -1.0, 87.5, -87.5, -100.0, 3.0e3])
+            .collect();
+        for chunk in inputs.chunks_exact(8) {
+            let x: [f32; 8] = chunk.try_into().unwrap();
+            // SAFETY: AVX2 and FMA (checked above); eight lanes.
+            let (s, c, a, e) = unsafe {
+                let v = _mm256_loadu_ps(x.as_ptr());
+                let (s, c) = x8::sin_cos([v]);
+                let neg = _mm256_sub_ps(_mm256_setzero_ps(), _mm256_mul_ps(v, v));
+                let (a, e) = (x8::acos([v, v, v]), x8::exp_neg([neg, neg]));
+                let out = |v: __m256| std::mem::transmute::<__m256, [f32; 8]>(v);
+                (out(s[0]), out(c[0]), out(a[2]), out(e[1]))
+            };
+            for l in 0..8 {
+                let (ws, wc) = sin_cos_f32_with::<Fused>(x[l]);
+                assert_eq!(
+                    (s[l].to_bits(), c[l].to_bits()),
+                    (ws.to_bits(), wc.to_bits()),
+                    "{}",
+                    x[l]
+                );
+                assert_eq!(
+                    a[l].to_bits(),
+                    acos_f32_with::<Fused>(x[l]).to_bits(),
+                    "{}",
+                    x[l]
+                );
+                let neg = 0.0 - x[l] * x[l];
+                assert_eq!(
+                    e[l].to_bits(),
+                    exp_neg_f32_with::<Fused>(neg).to_bits(),
+                    "{}",
+                    x[l]
+                );
+            }
+        }
     }
 }

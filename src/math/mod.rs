@@ -8,11 +8,13 @@
 //! | [`angle`] | [`wrap_2pi`], [`wrap_pi`] |
 //! | `fastmath` | branch-light sin/cos, acos, exp, atan2 |
 //! | `f32x4` | a four-lane f32 vector for the density and follow kernels |
+//! | `lane_rng` | a generator per sample (xoshiro128++), uniform and normal draws from its words, scalar and AVX2 |
 //! | [`simd`] | [`Simd`]: the baseline or AVX2 + FMA, detected at run time (`CLIFF_SIMD`) |
 
 pub mod angle;
 pub(crate) mod f32x4;
 pub(crate) mod fastmath;
+pub(crate) mod lane_rng;
 pub mod simd;
 
 pub use angle::{wrap_2pi, wrap_pi};

@@ -7,11 +7,14 @@
 //! `baseline` forces the baseline copy, `avx2` asks for the AVX2 copy (ignored, with the
 //! baseline kept, where the processor lacks AVX2 or FMA), `auto` (or unset) detects.
 //!
-//! Both copies do the same IEEE operations except that the AVX2 copy fuses the lane
-//! loop's multiply-adds (one rounding instead of two), so the two paths give positions
-//! that differ in their last bits. On one path results are deterministic for a seed, and
-//! every process on a machine (the daemon, in-process calls, Python) takes the same path
-//! unless `CLIFF_SIMD` tells one otherwise.
+//! Both copies draw the same numbers from the same per-sample generators and do the
+//! same IEEE operations, except that the AVX2 copy fuses the lane loop's multiply-adds
+//! (one rounding instead of two: the normal draw, the sampled direction, the heading
+//! update, the position step), so the two paths give positions that differ in their
+//! last bits. (The paper's method on AVX2 runs in intrinsics, eight samples to a
+//! register, with the bits of the generic AVX2 copy.) On one path results are
+//! deterministic for a seed, and every process on a machine (the daemon, in-process
+//! calls, Python) takes the same path unless `CLIFF_SIMD` tells one otherwise.
 //!
 //! ```
 //! use cliff::math::Simd;

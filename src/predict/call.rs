@@ -5,9 +5,9 @@
 use super::candidates::{Candidates, rank};
 use super::cvm::{cvm_score, roll_cvm};
 use super::lanes::{ANY, Extras, Lane, Lanes, PAPER, SPEED};
-use super::seeds::agent_rng;
+use super::seeds::agent_key;
 use super::{BatchMut, Method, Params, Point};
-use crate::map::CliffMap;
+use crate::map::{CliffMap, NeighbourTable};
 use crate::motion::State;
 use glam::DVec2;
 
@@ -17,7 +17,7 @@ pub(super) struct Call<'a, 'b> {
     pub(super) agents: &'a [State],
     pub(super) params: &'a Params,
     pub(super) extras: &'a Extras,
-    /// The call's seed, and the index in the call of `agents[0]` ([`agent_rng`]).
+    /// The call's seed, and the index in the call of `agents[0]` ([`agent_key`]).
     pub(super) seed: u64,
     pub(super) first_agent: u64,
     pub(super) out: BatchMut<'b>,
@@ -27,8 +27,8 @@ pub(super) struct Call<'a, 'b> {
 
 impl Call<'_, '_> {
     /// Predict with the map lookup `near` (monomorphised per lookup kind so the hot loop
-    /// inlines it).
-    pub(super) fn run(self, near: impl Fn(DVec2) -> Option<usize>) {
+    /// inlines it), which answers from `table` if it is given.
+    pub(super) fn run(self, table: Option<&NeighbourTable>, near: impl Fn(DVec2) -> Option<usize>) {
         if self.params.method == Method::Cvm {
             return self.cvm(near);
         }
@@ -43,12 +43,12 @@ impl Call<'_, '_> {
         // candidates are ranked by their scores
         let scores = self.scores.is_some() || e.candidates > 1;
         match (motion, scores) {
-            (PAPER, false) => self.cliff::<PAPER, false>(near),
-            (PAPER, true) => self.cliff::<PAPER, true>(near),
-            (SPEED, false) => self.cliff::<SPEED, false>(near),
-            (SPEED, true) => self.cliff::<SPEED, true>(near),
-            (_, false) => self.cliff::<ANY, false>(near),
-            (_, true) => self.cliff::<ANY, true>(near),
+            (PAPER, false) => self.cliff::<PAPER, false>(table, near),
+            (PAPER, true) => self.cliff::<PAPER, true>(table, near),
+            (SPEED, false) => self.cliff::<SPEED, false>(table, near),
+            (SPEED, true) => self.cliff::<SPEED, true>(table, near),
+            (_, false) => self.cliff::<ANY, false>(table, near),
+            (_, true) => self.cliff::<ANY, true>(table, near),
         }
     }
 
@@ -71,7 +71,11 @@ impl Call<'_, '_> {
 
     /// Roll every CLiFF-LHMP sample of every agent in the flavour `MOTION` ([`PAPER`],
     /// [`SPEED`] or [`ANY`]), `SCORES` (scores on, or candidates to rank).
-    fn cliff<const MOTION: u8, const SCORES: bool>(self, near: impl Fn(DVec2) -> Option<usize>) {
+    fn cliff<const MOTION: u8, const SCORES: bool>(
+        self,
+        table: Option<&NeighbourTable>,
+        near: impl Fn(DVec2) -> Option<usize>,
+    ) {
         let Call {
             map,
             agents,
@@ -110,14 +114,15 @@ impl Call<'_, '_> {
                 state,
                 params,
                 extras,
+                table,
             };
             let tracks = &mut out.positions[a * k * steps..(a + 1) * k * steps];
             let lens = &mut out.lens[a * k..(a + 1) * k];
             let agent_scores = scores.as_deref_mut().map(|s| &mut s[a * k..(a + 1) * k]);
-            let rng = &mut agent_rng(seed, first_agent + a as u64);
+            let key = agent_key(seed, first_agent + a as u64);
             if c == 1 {
                 let agent_scores = agent_scores.unwrap_or(&mut []);
-                lanes.roll_agent::<MOTION, SCORES>(rng, tracks, lens, agent_scores);
+                lanes.roll_agent::<MOTION, SCORES>(key, tracks, lens, agent_scores);
                 if extras.consensus && !agent_scores.is_empty() {
                     consensus(tracks, lens, agent_scores, &mut scratch.centre);
                 }
@@ -129,11 +134,11 @@ impl Call<'_, '_> {
                     // the likelihood scores are the output's
                     let ranked = agent_scores.is_some() && !extras.consensus;
                     let schedule = super::PRUNE_SCHEDULE;
-                    lanes.roll_pruned::<MOTION>(rng, schedule, k, steps, ranked, scratch)
+                    lanes.roll_pruned::<MOTION>(key, schedule, k, steps, ranked, scratch)
                 }
             } else {
                 lanes.roll_agent::<MOTION, true>(
-                    rng,
+                    key,
                     &mut scratch.tracks,
                     &mut scratch.lens,
                     &mut scratch.scores,

@@ -4,12 +4,12 @@
 use std::f64::consts::PI;
 
 use glam::DVec2;
-use rand_xoshiro::Xoshiro256PlusPlus;
 
 use super::options::NO_LOCATION_LOG_DENSITY;
 use super::{HeadingRule, Params, Point};
-use crate::map::{CliffMap, FollowWeights};
+use crate::map::{CliffMap, FollowWeights, NeighbourTable};
 use crate::math::fastmath;
+use crate::math::lane_rng::{LaneRngs, lane_seed, normal_f32_with, unit_f32};
 use crate::math::simd::{MulAdd, Separate};
 use crate::math::{Simd, wrap_2pi};
 use crate::motion::{SpeedPrior, State};
@@ -60,18 +60,20 @@ pub(super) const MAX_LANES: usize = 20;
 /// carries from one step to the next (lanes past the group's samples stay dead).
 #[derive(Debug, Clone, Copy)]
 pub(super) struct LaneState<const N: usize> {
-    px: [f64; N],
-    py: [f64; N],
-    ux: [f32; N],
-    uy: [f32; N],
+    pub(super) px: [f64; N],
+    pub(super) py: [f64; N],
+    pub(super) ux: [f32; N],
+    pub(super) uy: [f32; N],
     theta: [f64; N],
     speed: [f64; N],
-    loc: [usize; N],
-    alive: [bool; N],
+    pub(super) loc: [usize; N],
+    pub(super) alive: [bool; N],
     on_map: [bool; N],
     coast_left: [u32; N],
     /// The steps' log-densities summed so far (with scores).
     score: [f32; N],
+    /// Each lane's generator.
+    pub(super) rng: LaneRngs<N>,
 }
 
 /// One sample's lane of a [`LaneState`], kept between the stretches of a pruned
@@ -90,6 +92,8 @@ pub(super) struct Lane {
     coast_left: u32,
     /// The sample's log-densities summed so far.
     pub(super) score: f32,
+    /// The sample's generator.
+    rng: [u32; 4],
 }
 
 impl Lane {
@@ -119,6 +123,7 @@ impl<const N: usize> LaneState<N> {
             on_map: [false; N],
             coast_left: [0; N],
             score: [0.0; N],
+            rng: LaneRngs::zero(),
         };
         for (l, lane) in lanes.iter().enumerate() {
             st.px[l] = lane.px;
@@ -132,6 +137,7 @@ impl<const N: usize> LaneState<N> {
             st.on_map[l] = lane.on_map;
             st.coast_left[l] = lane.coast_left;
             st.score[l] = lane.score;
+            st.rng.set(l, lane.rng);
         }
         st
     }
@@ -151,6 +157,7 @@ impl<const N: usize> LaneState<N> {
                 on_map: self.on_map[l],
                 coast_left: self.coast_left[l],
                 score: self.score[l],
+                rng: self.rng.get(l),
             };
         }
     }
@@ -175,14 +182,17 @@ pub(super) struct Lanes<'a, F> {
     pub(super) observed_speed: f64,
     pub(super) params: &'a Params,
     pub(super) extras: &'a Extras,
+    /// The neighbour table `near` answers from, if it is one (the AVX2 loop of the
+    /// paper's method reads it directly).
+    pub(super) table: Option<&'a NeighbourTable>,
 }
 
 impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
     /// All samples of one agent (`lens.len()` of them), in groups of up to
-    /// [`MAX_LANES`].
+    /// [`MAX_LANES`]; sample `s` draws from the generator `lane_seed(key, s)`.
     pub(super) fn roll_agent<const MOTION: u8, const SCORES: bool>(
         &self,
-        rng: &mut Xoshiro256PlusPlus,
+        key: u64,
         tracks: &mut [Point],
         lens: &mut [u32],
         scores: &mut [f32],
@@ -199,20 +209,31 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
             } else {
                 &mut []
             };
-            self.group_any::<MOTION, SCORES>(rng, None, 0, steps, tracks, lens, group_scores);
+            let first = g * MAX_LANES;
+            self.group_any::<MOTION, SCORES>(
+                (key, first),
+                None,
+                0,
+                steps,
+                tracks,
+                lens,
+                group_scores,
+            );
         }
     }
 
     /// Steps `from..to` of one group of at most [`MAX_LANES`] samples of one agent
     /// (`lens.len()` of them, `tracks` their positions), scored with `SCORES` (else the
     /// lanes' scores stay as they are), from the lanes `lanes`
-    /// (from the agent's start when `from` is 0), which it updates: a stretch of a pruned
+    /// (from the agent's start when `from` is 0, the group's samples then numbered from
+    /// `first` for their generators), which it updates: a stretch of a pruned
     /// rollout. The tracks' positions after the stretch are left as they are, and the
     /// lanes hold the partial scores ([`finish_sample`] ends a sample).
     #[allow(clippy::too_many_arguments)] // the group's buffers
+    #[allow(clippy::too_many_arguments)] // the group's buffers
     pub(super) fn roll_stretch<const MOTION: u8, const SCORES: bool>(
         &self,
-        rng: &mut Xoshiro256PlusPlus,
+        (key, first): (u64, usize),
         lanes: &mut [Lane],
         from: usize,
         to: usize,
@@ -220,7 +241,15 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
         lens: &mut [u32],
     ) {
         debug_assert!(lanes.len() == lens.len() && lens.len() <= MAX_LANES);
-        self.group_any::<MOTION, SCORES>(rng, Some(lanes), from, to, tracks, lens, &mut []);
+        self.group_any::<MOTION, SCORES>(
+            (key, first),
+            Some(lanes),
+            from,
+            to,
+            tracks,
+            lens,
+            &mut [],
+        );
     }
 
     /// One group (at most [`MAX_LANES`] samples) in the copy of the loop with the
@@ -228,7 +257,7 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
     #[allow(clippy::too_many_arguments)] // the group's buffers
     fn group_any<const MOTION: u8, const SCORES: bool>(
         &self,
-        rng: &mut Xoshiro256PlusPlus,
+        seeds: (u64, usize),
         lanes: Option<&mut [Lane]>,
         from: usize,
         to: usize,
@@ -236,7 +265,7 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
         lens: &mut [u32],
         scores: &mut [f32],
     ) {
-        let args = (rng, lanes, from, to, tracks, lens, scores);
+        let args = (seeds, lanes, from, to, tracks, lens, scores);
         match args.5.len() {
             1..=4 => self.group::<4, MOTION, SCORES>(args),
             5..=8 => self.group::<8, MOTION, SCORES>(args),
@@ -253,8 +282,8 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
     #[inline(always)]
     fn group<const N: usize, const MOTION: u8, const SCORES: bool>(
         &self,
-        (rng, lanes, from, to, tracks, lens, scores): (
-            &mut Xoshiro256PlusPlus,
+        ((key, first), lanes, from, to, tracks, lens, scores): (
+            (u64, usize),
             Option<&mut [Lane]>,
             usize,
             usize,
@@ -270,19 +299,35 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
             Some(lanes) if from > 0 => LaneState::load(lanes),
             _ => {
                 lens.fill(0);
-                self.start::<N, MOTION>(n)
+                self.start::<N, MOTION>(n, key, first)
             }
         };
         #[cfg(target_arch = "x86_64")]
         if self.extras.simd == Simd::Avx2Fma {
-            // SAFETY: `Extras::simd` is a path the processor has (`Simd::available`,
-            // checked where the call's extras are made), so AVX2 and FMA exist.
-            unsafe { self.roll_avx2::<N, MOTION, SCORES>(rng, &mut st, from, to, tracks, lens) };
+            match self.table {
+                // the paper's method, whole: in AVX2 registers
+                Some(table)
+                    if MOTION == PAPER
+                        && !SCORES
+                        && lanes.is_none()
+                        && self.params.heading == HeadingRule::CircularMean
+                        && self.map.lane_width().is_some() =>
+                {
+                    // SAFETY: `Extras::simd` is a path the processor has
+                    // (`Simd::available`, checked where the call's extras are made), so
+                    // AVX2 and FMA exist; the map's lane tables have a width.
+                    unsafe { self.roll_paper_avx2::<N>(table, &st, tracks, lens) }
+                }
+                // SAFETY: as above.
+                _ => unsafe {
+                    self.roll_avx2::<N, MOTION, SCORES>(&mut st, from, to, tracks, lens)
+                },
+            }
         } else {
-            self.roll::<N, MOTION, SCORES>(rng, &mut st, from, to, tracks, lens);
+            self.roll::<N, MOTION, SCORES>(&mut st, from, to, tracks, lens);
         }
         #[cfg(not(target_arch = "x86_64"))]
-        self.roll::<N, MOTION, SCORES>(rng, &mut st, from, to, tracks, lens);
+        self.roll::<N, MOTION, SCORES>(&mut st, from, to, tracks, lens);
         match lanes {
             Some(lanes) => st.store(lanes),
             None => {
@@ -296,9 +341,15 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
         }
     }
 
-    /// The lanes of `n` samples at the agent's start.
+    /// The lanes of `n` samples at the agent's start, lane `l`'s generator
+    /// `lane_seed(key, first + l)`.
     #[inline(always)]
-    fn start<const N: usize, const MOTION: u8>(&self, n: usize) -> LaneState<N> {
+    fn start<const N: usize, const MOTION: u8>(
+        &self,
+        n: usize,
+        key: u64,
+        first: usize,
+    ) -> LaneState<N> {
         let (state, extras) = (self.state, self.extras);
         let coast_steps = if MOTION == ANY { extras.coast_steps } else { 0 };
         let trusting = MOTION == ANY && extras.trust > 0.0;
@@ -324,10 +375,12 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
             on_map: [false; N],
             coast_left: [coast_steps; N],
             score: [0.0; N],
+            rng: LaneRngs::zero(),
         };
         for l in 0..n {
             st.on_map[l] = start.is_some();
             st.alive[l] = start.is_some() || coast_steps > 0;
+            st.rng.set(l, lane_seed(key, (first + l) as u64));
         }
         st
     }
@@ -337,14 +390,13 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
     #[allow(clippy::too_many_arguments)] // the group's buffers
     fn roll<const N: usize, const MOTION: u8, const SCORES: bool>(
         &self,
-        rng: &mut Xoshiro256PlusPlus,
         st: &mut LaneState<N>,
         from: usize,
         to: usize,
         tracks: &mut [Point],
         lens: &mut [u32],
     ) {
-        self.roll_body::<N, MOTION, SCORES, Separate>(rng, st, from, to, tracks, lens)
+        self.roll_body::<N, MOTION, SCORES, Separate>(st, from, to, tracks, lens)
     }
 
     /// [`roll_body`](Self::roll_body) compiled for AVX2 and FMA (eight single-precision
@@ -358,16 +410,13 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
     #[allow(clippy::too_many_arguments)] // the group's buffers
     unsafe fn roll_avx2<const N: usize, const MOTION: u8, const SCORES: bool>(
         &self,
-        rng: &mut Xoshiro256PlusPlus,
         st: &mut LaneState<N>,
         from: usize,
         to: usize,
         tracks: &mut [Point],
         lens: &mut [u32],
     ) {
-        self.roll_body::<N, MOTION, SCORES, crate::math::simd::Fused>(
-            rng, st, from, to, tracks, lens,
-        )
+        self.roll_body::<N, MOTION, SCORES, crate::math::simd::Fused>(st, from, to, tracks, lens)
     }
 
     /// Steps `from..to` of up to `N` CLiFF-LHMP samples of one agent from the lanes
@@ -391,7 +440,6 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
     #[allow(clippy::too_many_arguments)] // the group's buffers
     fn roll_body<const N: usize, const MOTION: u8, const SCORES: bool, M: MulAdd>(
         &self,
-        rng: &mut Xoshiro256PlusPlus,
         st: &mut LaneState<N>,
         from: usize,
         to: usize,
@@ -405,6 +453,7 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
             observed_speed,
             params,
             extras,
+            ..
         } = *self;
         let n = lens.len();
         debug_assert!(n <= N && N.is_multiple_of(4));
@@ -438,8 +487,9 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
             mut on_map,
             mut coast_left,
             mut score,
+            mut rng,
         } = *st;
-        let mut ts = [0.0f64; N];
+        let mut ts = [0.0f32; N];
         let mut rs = [0.0f64; N];
         // (single precision: a score sums at most a few hundred steps of the horizon's
         // worth, each kept to 1e-7 relative)
@@ -470,26 +520,33 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
             } else {
                 (0.0, 0.0, 0.0)
             };
-            // Phase 1: draw at each sampling lane's location (in lane order); follow's
-            // weights, which draw nothing, first for all lanes.
+            // Phase 1: draw at each sampling lane's location; follow's weights, which
+            // draw nothing, first for all lanes. Every lane's generator gives its words
+            // for the step (two, three with the speed kernel), whether the lane draws
+            // or not, so a sample's draws depend on its own generator alone.
             let weights = if follow_split {
                 follow_weights_on::<N>(extras.simd, map, &loc, &ux, &uy, &alive, &on_map, follow)
             } else {
                 [FollowWeights::default(); N]
             };
+            let pick = rng.next();
+            let normal = rng.next();
+            let noise = if with_speed { rng.next() } else { [0; N] };
+            let z: [f32; N] = std::array::from_fn(|l| normal_f32_with::<M>(normal[l]));
             let mut drawing = [false; N];
             for l in 0..N {
                 if alive[l] && (MOTION != ANY || on_map[l]) {
                     drawing[l] = true;
+                    let u = unit_f32(pick[l]);
                     if with_speed {
-                        (ts[l], rs[l]) = map.velocity_at(loc[l], rng);
+                        (ts[l], rs[l]) = map.lane_velocity::<M>(loc[l], u, z[l], noise[l]);
                     } else if follow_split {
-                        ts[l] = map.draw_following(loc[l], &weights[l], rng);
+                        ts[l] = map.lane_following::<M>(loc[l], &weights[l], u, z[l]);
                     } else if with_follow {
-                        let (hx, hy) = (ux[l] as f64, uy[l] as f64);
-                        ts[l] = map.direction_following(loc[l], hx, hy, extras.follow, rng);
+                        ts[l] = map
+                            .lane_direction_following::<M>(loc[l], ux[l], uy[l], follow, u, z[l]);
                     } else {
-                        ts[l] = map.direction_at(loc[l]).sample_unwrapped(rng);
+                        ts[l] = map.lane_direction::<M>(loc[l], u, z[l]);
                     }
                 }
             }
@@ -501,12 +558,9 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
                 HeadingRule::CircularMean => {
                     // Single precision: a heading error of 1e-7 rad per step is far below
                     // the sampling noise, and four f32 lanes fill one SSE2 register.
-                    // (Converted first: a loop that reads f64 lanes vectorises two lanes
-                    // at a time.)
-                    let ts32: [f32; N] = std::array::from_fn(|l| ts[l] as f32);
                     let beta = params.beta as f32;
                     // (eight lanes at a time: one AVX register, or two SSE2 ones)
-                    let (ts8, ts4) = ts32.as_chunks::<8>();
+                    let (ts8, ts4) = ts.as_chunks::<8>();
                     let (ux8, ux4) = ux.as_chunks_mut::<8>();
                     let (uy8, uy4) = uy.as_chunks_mut::<8>();
                     if trusting {
@@ -536,7 +590,7 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
                 }
                 HeadingRule::Paper => {
                     for l in 0..N {
-                        let mut signed = wrap_2pi(ts[l]) - theta[l];
+                        let mut signed = wrap_2pi(ts[l] as f64) - theta[l];
                         if signed > PI {
                             signed -= 2.0 * PI;
                         } else if signed < -PI {
@@ -655,6 +709,7 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
             on_map,
             coast_left,
             score,
+            rng,
         };
     }
 }

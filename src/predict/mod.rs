@@ -3,13 +3,15 @@
 //! [`predict`] rolls `k` samples forward for every agent and writes them into a
 //! caller-owned [`TrajectoryBatch`] (or, through [`predict_into`], into any pair of
 //! slices such as a shared-memory response). Once the buffer is sized, a call does not
-//! allocate. Each agent draws from a `Xoshiro256PlusPlus` generator of its own, seeded
+//! allocate. Each sample draws from a small generator of its own (xoshiro128++), seeded
+//! from its agent's key and its place among the agent's samples; the agent's key comes
 //! from [`Params::seed`] and the agent's place in the call (the first agent's from the
-//! seed itself, so a one-agent call is a call with that seed); an agent's samples
-//! advance in lockstep (groups of up to 20), one draw per live sample per step, in
-//! sample order. The same map, states and parameters give the same bytes, whether the
-//! agents are predicted in one call, in chunks, or on several threads
-//! ([`predict_batch`]); on one instruction path ([`Simd`](crate::math::Simd)).
+//! seed itself, so a one-agent call is a call with that seed). An agent's samples
+//! advance in lockstep (groups of up to 20, or eight to a register on AVX2), every
+//! sample taking the same number of words from its generator at every step, so a
+//! sample's draws do not depend on the others. The same map, states and parameters give
+//! the same bytes, whether the agents are predicted in one call, in chunks, or on several
+//! threads ([`predict_batch`]); on one instruction path ([`Simd`](crate::math::Simd)).
 //!
 //! ```
 //! use cliff::map::CliffMap;
@@ -33,6 +35,8 @@ mod candidates;
 mod cvm;
 mod flow_memo;
 mod lanes;
+#[cfg(target_arch = "x86_64")]
+mod lanes_avx2;
 mod options;
 pub mod preset;
 mod prune;

@@ -8,7 +8,6 @@
 //! one drawn first.
 
 use glam::DVec2;
-use rand_xoshiro::Xoshiro256PlusPlus;
 
 #[cfg(doc)]
 use super::PRUNE_SCHEDULE;
@@ -28,7 +27,7 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
     /// their scores are then those at the last checkpoint.
     pub(super) fn roll_pruned<const MOTION: u8>(
         &self,
-        rng: &mut Xoshiro256PlusPlus,
+        key: u64,
         schedule: &[(f64, f64)],
         k: usize,
         steps: usize,
@@ -68,9 +67,9 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
                 let (lanes, lens) = (&mut lanes[g..e], &mut lens[g..e]);
                 let tracks = &mut tracks[g * steps..e * steps];
                 if scored {
-                    self.roll_stretch::<MOTION, true>(rng, lanes, from, to, tracks, lens);
+                    self.roll_stretch::<MOTION, true>((key, g), lanes, from, to, tracks, lens);
                 } else {
-                    self.roll_stretch::<MOTION, false>(rng, lanes, from, to, tracks, lens);
+                    self.roll_stretch::<MOTION, false>((key, g), lanes, from, to, tracks, lens);
                 }
             }
             if to == steps {
@@ -207,7 +206,7 @@ mod tests {
     use crate::predict::flow_memo::FLOW_SLOTS;
     use crate::predict::lanes::{ANY, Extras};
     use crate::predict::options::pruned_share;
-    use crate::predict::seeds::agent_rng;
+    use crate::predict::seeds::agent_key;
     use crate::predict::{Params, Point};
 
     #[test]
@@ -283,22 +282,23 @@ mod tests {
             observed_speed: state.speed,
             params: &params,
             extras: &extras,
+            table: None,
         };
         let steps = params.steps();
         for m in [3, 12, 20] {
             let mut whole = scratch(m, steps);
-            let rng = &mut agent_rng(3, 0);
+            let key = agent_key(3, 0);
             lanes.roll_agent::<ANY, true>(
-                rng,
+                key,
                 &mut whole.tracks,
                 &mut whole.lens,
                 &mut whole.scores,
             );
             // checkpoints that keep every candidate
             let mut pieces = scratch(m, steps);
-            let rng = &mut agent_rng(3, 0);
+            let key = agent_key(3, 0);
             let left = lanes.roll_pruned::<ANY>(
-                rng,
+                key,
                 &[(0.2, 50.0), (0.5, 50.0)],
                 1,
                 steps,
@@ -324,19 +324,21 @@ mod tests {
             observed_speed: state.speed,
             params: &params,
             extras: &extras,
+            table: None,
         };
         let steps = params.steps();
         let (m, k, cut) = (20, 5, 9);
         let mut pruned = scratch(m, steps);
-        let rng = &mut agent_rng(8, 0);
+        let key = agent_key(8, 0);
         let at = cut as f64 / steps as f64;
-        let left = lanes.roll_pruned::<ANY>(rng, &[(at, 1.0)], k, steps, true, &mut pruned);
+        let left = lanes.roll_pruned::<ANY>(key, &[(at, 1.0)], k, steps, true, &mut pruned);
         assert_eq!(left, k);
         // the same by hand: all candidates to the cut, the best k by (reach, score)
         let mut by_hand = scratch(m, steps);
-        let rng = &mut agent_rng(8, 0);
+        let key = agent_key(8, 0);
         let c = &mut by_hand;
-        lanes.roll_stretch::<ANY, true>(rng, &mut c.lanes, 0, cut, &mut c.tracks, &mut c.lens);
+        let c_lanes = &mut c.lanes;
+        lanes.roll_stretch::<ANY, true>((key, 0), c_lanes, 0, cut, &mut c.tracks, &mut c.lens);
         // the projected reach: the flow walk from those that reached the cut
         let mut memo = FlowMemo::default();
         memo.start();
@@ -364,7 +366,7 @@ mod tests {
         }
         let kc = &mut kept;
         lanes.roll_stretch::<ANY, true>(
-            rng,
+            (key, 0),
             &mut kc.lanes,
             cut,
             steps,
@@ -402,11 +404,12 @@ mod tests {
             observed_speed: state.speed,
             params: &params,
             extras: &extras,
+            table: None,
         };
         let steps = params.steps();
         let mut c = scratch(1, steps);
-        let rng = &mut agent_rng(1, 0);
-        lanes.roll_stretch::<ANY, true>(rng, &mut c.lanes, 0, 1, &mut c.tracks, &mut c.lens);
+        let key = agent_key(1, 0);
+        lanes.roll_stretch::<ANY, true>((key, 0), &mut c.lanes, 0, 1, &mut c.tracks, &mut c.lens);
         assert_eq!(c.lens[0], 1);
         let mut memo = FlowMemo::default();
         memo.start();
@@ -438,6 +441,7 @@ mod tests {
             observed_speed: state.speed,
             params: &params,
             extras: &extras,
+            table: None,
         };
         let (first, lane) = walker_lane(-10.0, 0.5, 0.3);
         let mut memo = FlowMemo::default();

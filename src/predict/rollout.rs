@@ -84,7 +84,8 @@ pub struct Rollout {
     params: Params,
     options: Options,
     tables: Tables,
-    /// The call's seed; agent `i` of the call draws from `seeds::agent_rng(seed, i)`.
+    /// The call's seed; agent `i` of the call draws from generators keyed
+    /// `seeds::agent_key(seed, i)`.
     seed: u64,
     /// Agents predicted so far (the index of the next agent in the call).
     next_agent: u64,
@@ -250,8 +251,8 @@ impl Rollout {
         };
         match lookup {
             None => call.cvm(|_: DVec2| None::<usize>),
-            Some(Lookup::Table(t)) => call.run(|p| t.best_near(p)),
-            Some(Lookup::Grid(m, r)) => call.run(|p| m.best_near(p, r)),
+            Some(Lookup::Table(t)) => call.run(Some(&t), |p| t.best_near(p)),
+            Some(Lookup::Grid(m, r)) => call.run(None, |p| m.best_near(p, r)),
         }
         Ok(())
     }

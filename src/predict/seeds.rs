@@ -1,8 +1,16 @@
-//! Where an agent's draws come from: a generator per agent, seeded from the call's
-//! seed and the agent's place in the call.
+//! Where an agent's draws come from: a key per agent, from the call's seed and the
+//! agent's place in the call, and from it a generator per sample
+//! (`crate::math::lane_rng::lane_seed`).
 
-use rand::SeedableRng;
+use rand::{Rng, SeedableRng};
 use rand_xoshiro::Xoshiro256PlusPlus;
+
+/// The key of agent `index` of a call seeded with `seed`: the first word of
+/// [`agent_rng`]`(seed, index)`. Sample `s` of the agent draws from
+/// `lane_seed(key, s)`.
+pub(super) fn agent_key(seed: u64, index: u64) -> u64 {
+    agent_rng(seed, index).next_u64()
+}
 
 /// The generator agent `index` of a call seeded with `seed` draws from: agent 0 from
 /// `Xoshiro256PlusPlus::seed_from_u64(seed)` (a one-agent call draws as it always
@@ -22,8 +30,6 @@ pub(super) fn agent_rng(seed: u64, index: u64) -> Xoshiro256PlusPlus {
 
 #[cfg(test)]
 mod tests {
-    use rand::Rng;
-
     use super::*;
 
     #[test]
