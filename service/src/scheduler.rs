@@ -650,8 +650,9 @@ mod tests {
             ),
             (
                 Params {
+                    // one agent a chunk, three chunks a round above the parallel minimum
                     method: Method::Improved,
-                    k: 6,
+                    k: 8,
                     seed: 2,
                     ..Params::default()
                 },
