@@ -236,14 +236,18 @@ def main():
     print()
     print("| method | map | " + " | ".join(f"ADE {h:g} s (m) | vs offline | reach {h:g} s" for h in HORIZONS) + " |")
     print("|---|---|" + "---|---|---|" * len(HORIZONS))
+    def means(k, m, h, i):
+        """The mean of value i of map k's and of the offline map's rows, over the people
+        both predict (method m, horizon h)."""
+        both = [p for p in per[k] if p[0] == m and p[2] == h and p in per["all"]]
+        return (sum(per[k][p][i] for p in both) / len(both), sum(per["all"][p][i] for p in both) / len(both))
+
     for m in methods:
         for k in ("one", "learned", "all"):
             cells = []
             for h in HORIZONS:
-                both = [p for p in per[k] if p[0] == m and p[2] == h and p in per["all"]]
-                mine = sum(per[k][p][0] for p in both) / len(both)
-                ref = sum(per["all"][p][0] for p in both) / len(both)
-                reach = sum(per[k][p][1] for p in both) / len(both)
+                mine, ref = means(k, m, h, 0)
+                reach, _ = means(k, m, h, 1)
                 cells += [f"{mine:.3f}", f"{100 * (mine / ref - 1):+.1f} %", f"{100 * reach:.0f} %"]
             print(f"| `{m}` | {labels[k]} | " + " | ".join(cells) + " |")
     print()
@@ -255,10 +259,8 @@ def main():
         for k in ("one", "learned", "all"):
             cells = []
             for h in HORIZONS:
-                both = [p for p in per[k] if p[0] == m and p[2] == h and p in per["all"]]
                 for i in (2, 3):
-                    mine = sum(per[k][p][i] for p in both) / len(both)
-                    ref = sum(per["all"][p][i] for p in both) / len(both)
+                    mine, ref = means(k, m, h, i)
                     cells.append(f"{mine:.3f} ({100 * (mine / ref - 1):+.1f} %)")
             print(f"| `{m}` | {labels[k]} | " + " | ".join(cells) + " |")
     if a.all_people:

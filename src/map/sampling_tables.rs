@@ -54,6 +54,17 @@ pub(super) struct FollowBlock {
     pub(super) sin_mu: [f32; 4],
 }
 
+impl FollowBlock {
+    /// A block of padding only (weight 0, log-weight minus infinity): the start of
+    /// every block before its components are written in.
+    pub(super) const PADDING: FollowBlock = FollowBlock {
+        weight: [0.0; 4],
+        log_weight: [f32::NEG_INFINITY; 4],
+        cos_mu: [0.0; 4],
+        sin_mu: [0.0; 4],
+    };
+}
+
 /// The follow blocks of every location: location `i`'s are
 /// `blocks[starts[i]..starts[i + 1]]`, the components in order, four to a block. On maps
 /// whose widest mixture fits in two blocks every location gets the same number of blocks
@@ -73,12 +84,7 @@ pub(super) fn follow_blocks(locations: &[Location]) -> (Vec<u32>, Vec<FollowBloc
         let total: f64 = loc.components.iter().map(|c| c.weight).sum();
         let n = loc.components.len();
         for b in 0..fixed.unwrap_or(blocks_for(n)) {
-            let mut block = FollowBlock {
-                weight: [0.0; 4],
-                log_weight: [f32::NEG_INFINITY; 4],
-                cos_mu: [0.0; 4],
-                sin_mu: [0.0; 4],
-            };
+            let mut block = FollowBlock::PADDING;
             for l in 0..4 {
                 let j = 4 * b + l;
                 let c = &loc.components[j.min(n - 1)];
@@ -415,12 +421,7 @@ mod tests {
         };
         let mut out = Vec::new();
         for b in 0..n.div_ceil(4) {
-            let mut block = FollowBlock {
-                weight: [0.0; 4],
-                log_weight: [f32::NEG_INFINITY; 4],
-                cos_mu: [0.0; 4],
-                sin_mu: [0.0; 4],
-            };
+            let mut block = FollowBlock::PADDING;
             for l in 0..4 {
                 let theta = next() * std::f64::consts::TAU;
                 if 4 * b + l < n {

@@ -428,22 +428,30 @@ impl OnlineMap {
                         Some(NodeOutcome::Updated(s, ch))
                     }
                     None => {
-                        // the samples kept from earlier batches, then this batch's
-                        let mut seed = self.seeds.get(&split.keys[i]).cloned().unwrap_or_default();
-                        if x.is_empty() && seed.samples.is_empty() {
-                            return None;
-                        }
-                        seed.samples.extend_from_slice(x);
-                        seed.total += total;
-                        let comps = fit_mixture(&seed.samples, &p.fit);
+                        // the samples kept from earlier batches, then this batch's (joined
+                        // only where some were kept)
+                        let seed = self.seeds.get(&split.keys[i]);
+                        let joined;
+                        let samples = match seed {
+                            Some(seed) => {
+                                joined = [seed.samples.as_slice(), x].concat();
+                                joined.as_slice()
+                            }
+                            None if x.is_empty() => return None,
+                            None => x,
+                        };
+                        let total = total + seed.map_or(0.0, |s| s.total);
+                        let comps = fit_mixture(samples, &p.fit);
                         if comps.is_empty() {
-                            let excess = seed.samples.len().saturating_sub(SEED_SAMPLES);
-                            seed.samples.drain(..excess);
-                            return Some(NodeOutcome::Seeded(seed));
+                            let newest = samples.len().saturating_sub(SEED_SAMPLES);
+                            return Some(NodeOutcome::Seeded(Seed {
+                                samples: samples[newest..].to_vec(),
+                                total,
+                            }));
                         }
                         let mut s = NodeState {
-                            w: seed.samples.len() as f64,
-                            w_all: seed.total.max(seed.samples.len() as f64),
+                            w: samples.len() as f64,
+                            w_all: total.max(samples.len() as f64),
                             comps,
                         };
                         normalise(&mut s.comps);

@@ -227,6 +227,21 @@ mod tests {
     }
 
     /// The demo map, a walker on it, and the improved preset's extras.
+    /// The lanes of [`setup`]'s walker (`near` the map's best-near lookup).
+    macro_rules! lanes_of {
+        ($map:ident, $near:ident, $state:ident, $params:ident, $extras:ident) => {
+            Lanes {
+                map: &$map,
+                near: &$near,
+                state: &$state,
+                observed_speed: $state.speed,
+                params: &$params,
+                extras: &$extras,
+                table: None,
+            }
+        };
+    }
+
     fn setup() -> (CliffMap, State, Params, Extras) {
         let map = CliffMap::demo();
         let state = State {
@@ -275,15 +290,7 @@ mod tests {
     fn stretches_without_a_cut_give_the_whole_rollout_of_one_group() {
         let (map, state, params, extras) = setup();
         let near = |p| map.best_near(p, params.radius);
-        let lanes = Lanes {
-            map: &map,
-            near: &near,
-            state: &state,
-            observed_speed: state.speed,
-            params: &params,
-            extras: &extras,
-            table: None,
-        };
+        let lanes = lanes_of!(map, near, state, params, extras);
         let steps = params.steps();
         for m in [3, 12, 20] {
             let mut whole = scratch(m, steps);
@@ -317,15 +324,7 @@ mod tests {
     fn a_cut_keeps_the_furthest_reaching_then_best_scored_and_they_go_on() {
         let (map, state, params, extras) = setup();
         let near = |p| map.best_near(p, params.radius);
-        let lanes = Lanes {
-            map: &map,
-            near: &near,
-            state: &state,
-            observed_speed: state.speed,
-            params: &params,
-            extras: &extras,
-            table: None,
-        };
+        let lanes = lanes_of!(map, near, state, params, extras);
         let steps = params.steps();
         let (m, k, cut) = (20, 5, 9);
         let mut pruned = scratch(m, steps);
@@ -397,15 +396,7 @@ mod tests {
             time: 0.0,
         };
         let near = |p| map.best_near(p, params.radius);
-        let lanes = Lanes {
-            map: &map,
-            near: &near,
-            state: &state,
-            observed_speed: state.speed,
-            params: &params,
-            extras: &extras,
-            table: None,
-        };
+        let lanes = lanes_of!(map, near, state, params, extras);
         let steps = params.steps();
         let mut c = scratch(1, steps);
         let key = agent_key(1, 0);
@@ -434,15 +425,7 @@ mod tests {
     fn a_walk_that_meets_a_state_seen_before_takes_its_count() {
         let (map, state, params, extras) = setup();
         let near = |p| map.best_near(p, params.radius);
-        let lanes = Lanes {
-            map: &map,
-            near: &near,
-            state: &state,
-            observed_speed: state.speed,
-            params: &params,
-            extras: &extras,
-            table: None,
-        };
+        let lanes = lanes_of!(map, near, state, params, extras);
         let (first, lane) = walker_lane(-10.0, 0.5, 0.3);
         let mut memo = FlowMemo::default();
         memo.start();

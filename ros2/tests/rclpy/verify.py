@@ -17,8 +17,10 @@ track's end (--observed, its log, and --learned, its snapshot folder), and with
 line per check and `N passed, N failed`; exits 1 on any failure.
 """
 import argparse
+import glob
 import json
 import math
+import re
 import struct
 import subprocess
 import sys
@@ -46,10 +48,13 @@ class Results:
 
 
 def replay(sent, timeout, history_seconds, transform=None):
-    """Expected (ids, histories) after each published message, by stamp."""
+    """Expected (ids, histories) after each published message, by stamp; and the rows
+    the track rules keep (each person's stamps newer than its last) and the tracks they
+    make (a person forgotten after the timeout and seen again is a new one)."""
     order, obs = [], {}
     newest = None
     out = {}
+    rows = tracks = 0
     if transform:
         tx, ty, yaw = transform
         c, s = math.cos(yaw), math.sin(yaw)
@@ -64,8 +69,10 @@ def replay(sent, timeout, history_seconds, transform=None):
             if name not in obs:
                 order.append(name)
                 obs[name] = []
+                tracks += 1
             if not obs[name] or t > secs(obs[name][-1][:2]):
                 obs[name].append((m["stamp"][0], m["stamp"][1], x, y))
+                rows += 1
         for name in list(order):
             if secs(obs[name][-1][:2]) < newest - timeout:
                 order.remove(name)
@@ -79,7 +86,7 @@ def replay(sent, timeout, history_seconds, transform=None):
                 ids.append(name)
                 hist.append([list(o) for o in w])
         out[tuple(m["stamp"])] = (ids, hist)
-    return out
+    return out, rows, tracks
 
 
 def check_log(r, path, specs):
@@ -113,34 +120,9 @@ def check_gone(r, sent, preds, gone, back):
             f"predictions back by themselves after the restart ({len(after)} for {len(after_sent)} messages)")
 
 
-def observed_counts(sent, timeout, transform=None):
-    """The rows the track rules keep (each person's stamps newer than its last), and the
-    tracks they make (a person forgotten after the timeout and seen again is a new one)."""
-    last, rows, tracks = {}, 0, 0
-    newest = None
-    for m in sent:
-        t = secs(m["stamp"])
-        if newest is not None and t < newest - timeout:
-            last, newest = {}, None
-        newest = t if newest is None or t > newest else newest
-        for name, _, _ in m["people"]:
-            if name not in last:
-                last[name] = None
-                tracks += 1
-            if last[name] is None or t > last[name]:
-                last[name] = t
-                rows += 1
-        for name in [n for n, lt in last.items() if lt < newest - timeout]:
-            del last[name]
-    return rows, tracks
-
-
-def check_observed(r, sent, timeout, daemon_log, learned_dir):
-    """cliffd's closing line: every row once, every track's end (a duplicate of the
-    track's newest row), rows learned, and a snapshot written."""
-    import glob
-    import re
-    rows, tracks = observed_counts(sent, timeout)
+def check_observed(r, rows, tracks, daemon_log, learned_dir):
+    """cliffd's closing line: every row of the track rules (`rows`) once, every track's
+    end (a duplicate of the track's newest row), rows learned, and a snapshot written."""
     text = open(daemon_log, errors="replace").read()
     m = re.search(r"cliffd learned: (\d+) rows taken, (\d+) duplicates, (\d+) rows learned, "
                   r"(\d+) versions, (\d+) refused, (\d+) snapshots", text)
@@ -205,14 +187,14 @@ def main():
         check_gone(r, sent, preds, float(open(a.gone).read()), float(open(a.back).read()))
     if a.all_deleted:
         check_all_deleted(r, got["markers"])
-    if a.observed:
-        check_observed(r, sent, a.timeout, a.observed, a.learned)
     r.check(len(sent) > 0 and len(preds) >= a.min_received * len(sent),
             f"{len(preds)} predictions for {len(sent)} people messages",
             f"expected at least {a.min_received:.0%}")
 
     transform = [float(v) for v in a.transform.split()] if a.transform else None
-    expected = replay(sent, a.timeout, a.history_seconds, transform)
+    expected, rows, tracks = replay(sent, a.timeout, a.history_seconds, transform)
+    if a.observed:
+        check_observed(r, rows, tracks, a.observed, a.learned)
     bad_meta, bad_rules, cycles = [], [], []
     for p in preds:
         key = tuple(p["stamp"])
