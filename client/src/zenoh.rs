@@ -176,6 +176,11 @@ impl ZenohLink {
         // zenoh ends the query at the deadline; the margin only guards against a stuck
         // channel
         let reply = match replies.recv_timeout(deadline + Duration::from_millis(100)) {
+            // zenoh's query timer counts whole milliseconds, so a shorter deadline can
+            // pass before zenoh ends the query: a reply after it is late all the same
+            Ok(Some(_)) if start.elapsed() > deadline => {
+                return Err(Error::Deadline { deadline });
+            }
             Ok(Some(reply)) => reply,
             Ok(None) => return Err(Error::Deadline { deadline }),
             Err(_) if start.elapsed() >= deadline => return Err(Error::Deadline { deadline }),
