@@ -35,6 +35,9 @@ pub struct CliffMap {
     /// Components for [`CliffMap::direction_following`] ([`follow_blocks`]).
     pub(super) follow_start: Vec<u32>,
     pub(super) follow: Vec<FollowBlock>,
+    /// Whether every location's follow components fit two blocks
+    /// ([`CliffMap::follow_weights_fit`]), found once when the map is made.
+    pub(super) follow_fits: bool,
     /// Densities for sample scores: location `i`'s components are
     /// `density[density_start[i]..density_start[i + 1]]`.
     pub(super) density_start: Vec<u32>,
@@ -62,6 +65,7 @@ impl Clone for CliffMap {
             speed: self.speed.clone(),
             follow_start: self.follow_start.clone(),
             follow: self.follow.clone(),
+            follow_fits: self.follow_fits,
             density_start: self.density_start.clone(),
             density: self.density.clone(),
             step_density: self.step_density.clone(),
@@ -177,6 +181,7 @@ impl CliffMap {
         density_start.push(density.len() as u32);
         let (_, speed) = pad_with(comp_start.clone(), speed, |last| last);
         let (follow_start, follow) = follow_blocks(&locations);
+        let follow_fits = follow_start.windows(2).all(|w| w[1] - w[0] <= 2);
         let step_density = density::StepDensities::new(&density_start, &density);
         let (comp_start, table) = pad_components(comp_start, table);
         let lane = LaneTables::new(&comp_start, &table);
@@ -191,6 +196,7 @@ impl CliffMap {
             speed,
             follow_start,
             follow,
+            follow_fits,
             density_start,
             density,
             step_density,

@@ -87,8 +87,9 @@ impl CliffMap {
     /// [`direction_following`](Self::direction_following) into
     /// [`follow_weights`](Self::follow_weights) and
     /// [`draw_following`](Self::draw_following).
+    #[inline]
     pub fn follow_weights_fit(&self) -> bool {
-        self.follow_start.windows(2).all(|w| w[1] - w[0] <= 2)
+        self.follow_fits
     }
 
     /// The part of [`direction_following`](Self::direction_following) that draws
