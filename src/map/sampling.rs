@@ -7,6 +7,8 @@ use rand_distr::StandardNormal;
 
 use super::cliff_map::CliffMap;
 use super::limits::MAX_COMPONENTS;
+#[cfg(target_arch = "x86_64")]
+use super::sampling_tables::follow_cumulative_avx2;
 use super::sampling_tables::{
     DirectionComponent, FollowWeights, count_below, follow_cumulative, follow_cumulative_fixed,
     follow_mode_of, four_uniforms_normal,
@@ -107,6 +109,30 @@ impl CliffMap {
             [a, b] => FollowWeights(follow_cumulative_fixed(&[*a, *b], ux, uy, kappa)),
             [a] => FollowWeights(follow_cumulative_fixed(&[*a], ux, uy, kappa)),
             blocks => FollowWeights(follow_cumulative::<8>(blocks, ux, uy, kappa)),
+        }
+    }
+
+    /// [`follow_weights`](Self::follow_weights) on AVX2 (the same bits; eight components
+    /// per instruction where the location has more than four).
+    ///
+    /// # Safety
+    /// The processor must have AVX2 and FMA. (Inlined into the AVX2 lane loop, whose
+    /// target features it then compiles with.)
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    pub(crate) unsafe fn follow_weights_avx2(
+        &self,
+        index: usize,
+        ux: f32,
+        uy: f32,
+        kappa: f32,
+    ) -> FollowWeights {
+        let s = self.follow_start[index] as usize;
+        let e = (self.follow_start[index + 1] as usize).min(s + 2);
+        match &self.follow[s..e] {
+            // SAFETY: AVX2 and FMA, as this function requires.
+            [a, b] => FollowWeights(unsafe { follow_cumulative_avx2(&[*a, *b], ux, uy, kappa) }),
+            _ => self.follow_weights(index, ux, uy, kappa),
         }
     }
 

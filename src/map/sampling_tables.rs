@@ -194,6 +194,122 @@ pub(super) fn follow_mode_of(blocks: &[FollowBlock], ux: f32, uy: f32, kappa: f3
     dir
 }
 
+/// [`follow_cumulative_fixed`] of two blocks with eight components per AVX instruction:
+/// the same operations on each component, in the same order (no fused multiply-adds),
+/// so the same bits. The AVX2 lane loop's follow weights for maps whose locations hold
+/// five to eight components.
+///
+/// # Safety
+/// The processor must have AVX2 and FMA. (Inlined into the AVX2 lane loop, whose
+/// target features it then compiles with.)
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+pub(super) unsafe fn follow_cumulative_avx2(
+    blocks: &[FollowBlock; 2],
+    ux: f32,
+    uy: f32,
+    kappa: f32,
+) -> [f32; 8] {
+    // SAFETY: AVX2, as this function requires.
+    let weight = unsafe { follow_avx::weights(blocks, ux, uy, kappa) };
+    // (sequential, as the general version sums)
+    let mut cum = [0.0f32; 8];
+    let mut total = 0.0f32;
+    for (c, w) in cum.iter_mut().zip(weight) {
+        total += w;
+        *c = total;
+    }
+    cum
+}
+
+/// The follow weights of two blocks in one AVX register ([`follow_cumulative_avx2`]).
+#[cfg(target_arch = "x86_64")]
+mod follow_avx {
+    use super::FollowBlock;
+    use std::arch::x86_64::*;
+
+    /// `follow_sse::exp_neg` on eight lanes, operation for operation.
+    ///
+    /// # Safety
+    /// The processor must have AVX2.
+    #[inline(always)]
+    unsafe fn exp_neg(x: __m256) -> __m256 {
+        const MAGIC: f32 = 12_582_912.0;
+        const LN2_HI: f32 = 0.693_145_75;
+        const LN2_LO: f32 = 1.428_606_8e-6;
+        // SAFETY: AVX2, as this function requires.
+        unsafe {
+            let s = |v| _mm256_set1_ps(v);
+            let xc = _mm256_max_ps(x, s(-87.0));
+            let t = _mm256_add_ps(_mm256_mul_ps(xc, s(std::f32::consts::LOG2_E)), s(MAGIC));
+            let k = _mm256_sub_ps(t, s(MAGIC));
+            let nk = _mm256_xor_ps(k, s(-0.0));
+            let r = _mm256_add_ps(
+                _mm256_mul_ps(nk, s(LN2_LO)),
+                _mm256_add_ps(_mm256_mul_ps(nk, s(LN2_HI)), xc),
+            );
+            let r2 = _mm256_mul_ps(r, r);
+            let r4 = _mm256_mul_ps(r2, r2);
+            let high = _mm256_add_ps(
+                _mm256_mul_ps(r2, s(1.0 / 720.0)),
+                _mm256_add_ps(_mm256_mul_ps(r, s(1.0 / 120.0)), s(1.0 / 24.0)),
+            );
+            let low = _mm256_add_ps(
+                _mm256_mul_ps(r2, _mm256_add_ps(_mm256_mul_ps(r, s(1.0 / 6.0)), s(0.5))),
+                _mm256_add_ps(s(1.0), r),
+            );
+            let p = _mm256_add_ps(_mm256_mul_ps(r4, high), low);
+            let ki = _mm256_sub_epi32(
+                _mm256_castps_si256(t),
+                _mm256_set1_epi32(MAGIC.to_bits() as i32),
+            );
+            let scale = _mm256_castsi256_ps(_mm256_slli_epi32::<23>(_mm256_add_epi32(
+                ki,
+                _mm256_set1_epi32(127),
+            )));
+            let y = _mm256_mul_ps(p, scale);
+            // below -87: 0
+            _mm256_and_ps(y, _mm256_cmp_ps::<_CMP_NLT_US>(x, s(-87.0)))
+        }
+    }
+
+    /// `follow_sse::weights` of two blocks, both in one register.
+    ///
+    /// # Safety
+    /// The processor must have AVX2.
+    #[inline(always)]
+    pub(super) unsafe fn weights(
+        blocks: &[FollowBlock; 2],
+        ux: f32,
+        uy: f32,
+        kappa: f32,
+    ) -> [f32; 8] {
+        let [a, b] = blocks;
+        // SAFETY: AVX2, as this function requires; the loads and the store go through
+        // references to four and eight floats.
+        unsafe {
+            let pair = |lo: &[f32; 4], hi: &[f32; 4]| {
+                _mm256_set_m128(_mm_loadu_ps(hi.as_ptr()), _mm_loadu_ps(lo.as_ptr()))
+            };
+            let c = _mm256_add_ps(
+                _mm256_mul_ps(_mm256_set1_ps(ux), pair(&a.cos_mu, &b.cos_mu)),
+                _mm256_mul_ps(_mm256_set1_ps(uy), pair(&a.sin_mu, &b.sin_mu)),
+            );
+            // the largest cosine, at least -1 (max is exact: its order does not matter)
+            let m = _mm256_max_ps(c, _mm256_set1_ps(-1.0));
+            let m = _mm_max_ps(_mm256_castps256_ps128(m), _mm256_extractf128_ps::<1>(m));
+            let m = _mm_max_ps(m, _mm_movehl_ps(m, m));
+            let m = _mm_max_ps(m, _mm_shuffle_ps::<0b01>(m, m));
+            let most = _mm256_broadcastss_ps(m);
+            let e = exp_neg(_mm256_mul_ps(_mm256_set1_ps(kappa), _mm256_sub_ps(c, most)));
+            let w = _mm256_mul_ps(pair(&a.weight, &b.weight), e);
+            let mut out = [0.0f32; 8];
+            _mm256_storeu_ps(out.as_mut_ptr(), w);
+            out
+        }
+    }
+}
+
 /// The follow weights of [`follow_cumulative_fixed`] in SSE (part of the x86-64
 /// baseline).
 #[cfg(target_arch = "x86_64")]
@@ -465,6 +581,36 @@ mod tests {
             }
         }
         assert_eq!(compared, 200 * 5 * 5);
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn avx_follow_weights_of_two_blocks_are_the_sse_ones_bit_for_bit() {
+        if !(is_x86_feature_detected!("avx2") && is_x86_feature_detected!("fma")) {
+            return;
+        }
+        let mut compared = 0;
+        for seed in 0..500 {
+            for n in [5, 6, 8] {
+                let b = blocks(n, seed);
+                let b = [b[0], b[1]];
+                for i in 0..8 {
+                    let h = -3.2 + 0.8 * i as f32 + 0.01 * seed as f32;
+                    let kappa = [0.0f32, 0.5, 4.0, 100.0][(seed as usize + i) % 4];
+                    let (ux, uy) = (h.cos(), h.sin());
+                    let sse = follow_cumulative_fixed(&b, ux, uy, kappa);
+                    // SAFETY: AVX2 and FMA were detected above.
+                    let avx = unsafe { follow_cumulative_avx2(&b, ux, uy, kappa) };
+                    assert_eq!(
+                        avx.map(f32::to_bits),
+                        sse.map(f32::to_bits),
+                        "{seed} {n} {h} {kappa}"
+                    );
+                    compared += 1;
+                }
+            }
+        }
+        assert_eq!(compared, 500 * 3 * 8);
     }
 
     #[test]

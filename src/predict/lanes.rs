@@ -752,7 +752,14 @@ unsafe fn follow_weights_avx2<const N: usize>(
     on_map: &[bool; N],
     follow: f32,
 ) -> [FollowWeights; N] {
-    follow_weights_body::<N>(map, loc, ux, uy, alive, on_map, follow)
+    let mut w = [FollowWeights::default(); N];
+    for l in 0..N {
+        if alive[l] && on_map[l] {
+            // SAFETY: AVX2 and FMA, as this function requires.
+            w[l] = unsafe { map.follow_weights_avx2(loc[l], ux[l], uy[l], follow) };
+        }
+    }
+    w
 }
 
 /// The follow weights of every lane that samples the map ([`CliffMap::follow_weights`]),
