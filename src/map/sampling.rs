@@ -7,12 +7,12 @@ use rand_distr::StandardNormal;
 
 use super::cliff_map::CliffMap;
 use super::limits::MAX_COMPONENTS;
-#[cfg(target_arch = "x86_64")]
-use super::sampling_tables::follow_cumulative_avx2;
 use super::sampling_tables::{
     DirectionComponent, FollowWeights, count_below, follow_cumulative, follow_cumulative_fixed,
     follow_mode_of, four_uniforms_normal,
 };
+#[cfg(target_arch = "x86_64")]
+use super::sampling_tables::{follow_cumulative_avx2, follow_cumulative_pair_avx2};
 use crate::math::simd::MulAdd;
 use crate::math::wrap_2pi;
 
@@ -134,6 +134,35 @@ impl CliffMap {
             [a, b] => FollowWeights(unsafe { follow_cumulative_avx2(&[*a, *b], ux, uy, kappa) }),
             _ => self.follow_weights(index, ux, uy, kappa),
         }
+    }
+
+    /// [`follow_weights`](Self::follow_weights) of two lanes at once on AVX2, the same
+    /// bits: locations `index[0]` and `index[1]` for the headings `(ux[i], uy[i])`, where
+    /// both hold at most four components (one register for both); `None` otherwise.
+    ///
+    /// # Safety
+    /// The processor must have AVX2 and FMA. (Inlined into the AVX2 lane loop, whose
+    /// target features it then compiles with.)
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    pub(crate) unsafe fn follow_weights_pair_avx2(
+        &self,
+        index: [usize; 2],
+        ux: [f32; 2],
+        uy: [f32; 2],
+        kappa: f32,
+    ) -> Option<[FollowWeights; 2]> {
+        let one = |i: usize| {
+            let s = self.follow_start[i] as usize;
+            match &self.follow[s..self.follow_start[i + 1] as usize] {
+                [block] => Some(block),
+                _ => None,
+            }
+        };
+        let blocks = [one(index[0])?, one(index[1])?];
+        // SAFETY: AVX2 and FMA, as this function requires.
+        let w = unsafe { follow_cumulative_pair_avx2(blocks, ux, uy, kappa) };
+        Some(w.map(FollowWeights))
     }
 
     /// The mean direction (a unit vector `(cos, sin)`) of location `index`'s likeliest

@@ -222,6 +222,35 @@ pub(super) unsafe fn follow_cumulative_avx2(
     cum
 }
 
+/// [`follow_cumulative_fixed`] of one block each for two headings (two lanes of the
+/// lane loop, each with its location's block), both in one AVX register, operation for
+/// operation: the same bits as two calls of the SSE version.
+///
+/// # Safety
+/// The processor must have AVX2 and FMA. (Inlined into the AVX2 lane loop, whose
+/// target features it then compiles with.)
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+pub(super) unsafe fn follow_cumulative_pair_avx2(
+    blocks: [&FollowBlock; 2],
+    ux: [f32; 2],
+    uy: [f32; 2],
+    kappa: f32,
+) -> [[f32; 8]; 2] {
+    // SAFETY: AVX2, as this function requires.
+    let weight = unsafe { follow_avx::weights_pair(blocks, ux, uy, kappa) };
+    weight.map(|weight| {
+        // (sequential, as the general version sums; the second block's slots are zero)
+        let mut cum = [0.0f32; 8];
+        let mut total = 0.0f32;
+        for (c, w) in cum.iter_mut().zip(weight) {
+            total += w;
+            *c = total;
+        }
+        cum
+    })
+}
+
 /// The follow weights of two blocks in one AVX register ([`follow_cumulative_avx2`]).
 #[cfg(target_arch = "x86_64")]
 mod follow_avx {
@@ -305,6 +334,45 @@ mod follow_avx {
             let w = _mm256_mul_ps(pair(&a.weight, &b.weight), e);
             let mut out = [0.0f32; 8];
             _mm256_storeu_ps(out.as_mut_ptr(), w);
+            out
+        }
+    }
+
+    /// `follow_sse::weights` of one block for each of two headings: the first in the
+    /// register's lower half, the second in its upper half (every step within a half).
+    ///
+    /// # Safety
+    /// The processor must have AVX2.
+    #[inline(always)]
+    pub(super) unsafe fn weights_pair(
+        blocks: [&FollowBlock; 2],
+        ux: [f32; 2],
+        uy: [f32; 2],
+        kappa: f32,
+    ) -> [[f32; 8]; 2] {
+        let [a, b] = blocks;
+        // SAFETY: AVX2, as this function requires; the loads and the stores go through
+        // references to four floats and to arrays of eight.
+        unsafe {
+            let pair = |lo: &[f32; 4], hi: &[f32; 4]| {
+                _mm256_set_m128(_mm_loadu_ps(hi.as_ptr()), _mm_loadu_ps(lo.as_ptr()))
+            };
+            let halves = |lo: f32, hi: f32| _mm256_set_m128(_mm_set1_ps(hi), _mm_set1_ps(lo));
+            let c = _mm256_add_ps(
+                _mm256_mul_ps(halves(ux[0], ux[1]), pair(&a.cos_mu, &b.cos_mu)),
+                _mm256_mul_ps(halves(uy[0], uy[1]), pair(&a.sin_mu, &b.sin_mu)),
+            );
+            // each half's largest cosine, at least -1 (max is exact: its order does not
+            // matter), then broadcast within the half
+            let m = _mm256_max_ps(c, _mm256_set1_ps(-1.0));
+            let m = _mm256_max_ps(m, _mm256_permute_ps::<0b11_10_11_10>(m));
+            let m = _mm256_max_ps(m, _mm256_permute_ps::<0b00_00_00_01>(m));
+            let most = _mm256_permute_ps::<0>(m);
+            let e = exp_neg(_mm256_mul_ps(_mm256_set1_ps(kappa), _mm256_sub_ps(c, most)));
+            let w = _mm256_mul_ps(pair(&a.weight, &b.weight), e);
+            let mut out = [[0.0f32; 8]; 2];
+            _mm_storeu_ps(out[0].as_mut_ptr(), _mm256_castps256_ps128(w));
+            _mm_storeu_ps(out[1].as_mut_ptr(), _mm256_extractf128_ps::<1>(w));
             out
         }
     }
@@ -605,6 +673,41 @@ mod tests {
                         avx.map(f32::to_bits),
                         sse.map(f32::to_bits),
                         "{seed} {n} {h} {kappa}"
+                    );
+                    compared += 1;
+                }
+            }
+        }
+        assert_eq!(compared, 500 * 3 * 8);
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn avx_follow_weights_of_two_lanes_are_the_sse_ones_bit_for_bit() {
+        if !(is_x86_feature_detected!("avx2") && is_x86_feature_detected!("fma")) {
+            return;
+        }
+        let mut compared = 0;
+        for seed in 0..500 {
+            for n in [1, 2, 4] {
+                let (a, b) = (blocks(n, seed)[0], blocks(4 - n / 2, seed + 1000)[0]);
+                for i in 0..8 {
+                    let h = [
+                        -3.2 + 0.8 * i as f32 + 0.01 * seed as f32,
+                        1.1 - 0.7 * i as f32 - 0.02 * seed as f32,
+                    ];
+                    let kappa = [0.0f32, 0.5, 4.0, 100.0][(seed as usize + i) % 4];
+                    let (ux, uy) = (h.map(f32::cos), h.map(f32::sin));
+                    let sse = [
+                        follow_cumulative_fixed(&[a], ux[0], uy[0], kappa),
+                        follow_cumulative_fixed(&[b], ux[1], uy[1], kappa),
+                    ];
+                    // SAFETY: AVX2 and FMA were detected above.
+                    let avx = unsafe { follow_cumulative_pair_avx2([&a, &b], ux, uy, kappa) };
+                    assert_eq!(
+                        avx.map(|w| w.map(f32::to_bits)),
+                        sse.map(|w| w.map(f32::to_bits)),
+                        "{seed} {n} {h:?} {kappa}"
                     );
                     compared += 1;
                 }

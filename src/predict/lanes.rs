@@ -753,10 +753,30 @@ unsafe fn follow_weights_avx2<const N: usize>(
     follow: f32,
 ) -> [FollowWeights; N] {
     let mut w = [FollowWeights::default(); N];
-    for l in 0..N {
-        if alive[l] && on_map[l] {
-            // SAFETY: AVX2 and FMA, as this function requires.
-            w[l] = unsafe { map.follow_weights_avx2(loc[l], ux[l], uy[l], follow) };
+    let wanted = |l: usize| alive[l] && on_map[l];
+    // two lanes to a register where their locations hold at most four components each
+    for l in (0..N).step_by(2) {
+        if !(wanted(l) || wanted(l + 1)) {
+            continue;
+        }
+        let index = [loc[l], loc[l + 1]];
+        let (x, y) = ([ux[l], ux[l + 1]], [uy[l], uy[l + 1]]);
+        // SAFETY: AVX2 and FMA, as this function requires.
+        if let Some([a, b]) = unsafe { map.follow_weights_pair_avx2(index, x, y, follow) } {
+            // (a lane that does not sample keeps no weights, as on the baseline path)
+            if wanted(l) {
+                w[l] = a;
+            }
+            if wanted(l + 1) {
+                w[l + 1] = b;
+            }
+            continue;
+        }
+        for l in [l, l + 1] {
+            if wanted(l) {
+                // SAFETY: as above.
+                w[l] = unsafe { map.follow_weights_avx2(loc[l], ux[l], uy[l], follow) };
+            }
         }
     }
     w
