@@ -159,15 +159,7 @@ pub(super) fn follow_cumulative_fixed<const B: usize>(
     return follow_cumulative::<8>(blocks, ux, uy, kappa);
     #[cfg(target_arch = "x86_64")]
     {
-        let weight = follow_sse::weights(blocks, ux, uy, kappa);
-        // (sequential, as the general version sums)
-        let mut cum = [0.0f32; 8];
-        let mut total = 0.0f32;
-        for (c, w) in cum.iter_mut().zip(weight) {
-            total += w;
-            *c = total;
-        }
-        cum
+        running_sums(follow_sse::weights(blocks, ux, uy, kappa))
     }
 }
 
@@ -211,15 +203,7 @@ pub(super) unsafe fn follow_cumulative_avx2(
     kappa: f32,
 ) -> [f32; 8] {
     // SAFETY: AVX2, as this function requires.
-    let weight = unsafe { follow_avx::weights(blocks, ux, uy, kappa) };
-    // (sequential, as the general version sums)
-    let mut cum = [0.0f32; 8];
-    let mut total = 0.0f32;
-    for (c, w) in cum.iter_mut().zip(weight) {
-        total += w;
-        *c = total;
-    }
-    cum
+    running_sums(unsafe { follow_avx::weights(blocks, ux, uy, kappa) })
 }
 
 /// [`follow_cumulative_fixed`] of one block each for two headings (two lanes of the
@@ -239,16 +223,21 @@ pub(super) unsafe fn follow_cumulative_pair_avx2(
 ) -> [[f32; 8]; 2] {
     // SAFETY: AVX2, as this function requires.
     let weight = unsafe { follow_avx::weights_pair(blocks, ux, uy, kappa) };
-    weight.map(|weight| {
-        // (sequential, as the general version sums; the second block's slots are zero)
-        let mut cum = [0.0f32; 8];
-        let mut total = 0.0f32;
-        for (c, w) in cum.iter_mut().zip(weight) {
-            total += w;
-            *c = total;
-        }
-        cum
-    })
+    // (the second block's slots are zero)
+    weight.map(running_sums)
+}
+
+/// The running sums of eight weights, one after the other (as
+/// [`follow_cumulative`] sums: the same bits on every path).
+#[inline(always)]
+fn running_sums(weight: [f32; 8]) -> [f32; 8] {
+    let mut cum = [0.0f32; 8];
+    let mut total = 0.0f32;
+    for (c, w) in cum.iter_mut().zip(weight) {
+        total += w;
+        *c = total;
+    }
+    cum
 }
 
 /// The follow weights of two blocks in one AVX register ([`follow_cumulative_avx2`]).
@@ -256,6 +245,16 @@ pub(super) unsafe fn follow_cumulative_pair_avx2(
 mod follow_avx {
     use super::FollowBlock;
     use std::arch::x86_64::*;
+
+    /// Two blocks' four floats in one register: `lo` in the lower half.
+    ///
+    /// # Safety
+    /// The processor must have AVX.
+    #[inline(always)]
+    unsafe fn pair(lo: &[f32; 4], hi: &[f32; 4]) -> __m256 {
+        // SAFETY: AVX, as this function requires; the loads read four floats each.
+        unsafe { _mm256_set_m128(_mm_loadu_ps(hi.as_ptr()), _mm_loadu_ps(lo.as_ptr())) }
+    }
 
     /// `follow_sse::exp_neg` on eight lanes, operation for operation.
     ///
@@ -317,9 +316,6 @@ mod follow_avx {
         // SAFETY: AVX2, as this function requires; the loads and the store go through
         // references to four and eight floats.
         unsafe {
-            let pair = |lo: &[f32; 4], hi: &[f32; 4]| {
-                _mm256_set_m128(_mm_loadu_ps(hi.as_ptr()), _mm_loadu_ps(lo.as_ptr()))
-            };
             let c = _mm256_add_ps(
                 _mm256_mul_ps(_mm256_set1_ps(ux), pair(&a.cos_mu, &b.cos_mu)),
                 _mm256_mul_ps(_mm256_set1_ps(uy), pair(&a.sin_mu, &b.sin_mu)),
@@ -354,9 +350,6 @@ mod follow_avx {
         // SAFETY: AVX2, as this function requires; the loads and the stores go through
         // references to four floats and to arrays of eight.
         unsafe {
-            let pair = |lo: &[f32; 4], hi: &[f32; 4]| {
-                _mm256_set_m128(_mm_loadu_ps(hi.as_ptr()), _mm_loadu_ps(lo.as_ptr()))
-            };
             let halves = |lo: f32, hi: f32| _mm256_set_m128(_mm_set1_ps(hi), _mm_set1_ps(lo));
             let c = _mm256_add_ps(
                 _mm256_mul_ps(halves(ux[0], ux[1]), pair(&a.cos_mu, &b.cos_mu)),
