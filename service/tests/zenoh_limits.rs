@@ -139,7 +139,9 @@ fn a_flooding_session_gets_busy_and_other_sessions_and_local_clients_are_all_ans
     let big = encoded(&largest_request(1));
     let flooder = std::thread::spawn(move || {
         let session = raw_session(PORT_FLOOD);
-        flood(&session, &big, 300)
+        // (fewer than the 256 refusals the daemon keeps waiting to be sent: beyond them
+        // a refusal is dropped, by design, and its query ends without a reply)
+        flood(&session, &big, 200)
     });
     // meanwhile, a second remote session and a local client ask for small predictions
     let mut far = Client::connect_zenoh_with(
@@ -173,7 +175,7 @@ fn a_flooding_session_gets_busy_and_other_sessions_and_local_clients_are_all_ans
     // every query of the flood is answered: predicted while its session had room,
     // `busy` (limit 2, the local clients' limit) beyond
     assert_eq!((too_many, other), (0, 0), "ok {ok}, busy {busy}");
-    assert_eq!(ok + busy, 300);
+    assert_eq!(ok + busy, 200);
     assert!(ok >= 2 && busy >= 1, "ok {ok}, busy {busy}");
 }
 
