@@ -736,7 +736,10 @@ fn follow_weights_on<const N: usize>(
     follow_weights::<N>(map, loc, ux, uy, alive, on_map, follow)
 }
 
-/// [`follow_weights`] compiled for AVX2 and FMA.
+/// [`follow_weights`] compiled for AVX2 and FMA, the same bits: two lanes to a
+/// register where their locations hold at most four components, a location's eight in
+/// one register where it holds more ([`CliffMap::follow_weights_pair_avx2`],
+/// [`CliffMap::follow_weights_avx2`]).
 ///
 /// # Safety
 /// The processor must have AVX2 and FMA.
@@ -786,19 +789,6 @@ unsafe fn follow_weights_avx2<const N: usize>(
 /// computed apart from the lane loop (which stays small) and before the lanes draw.
 #[inline(never)]
 fn follow_weights<const N: usize>(
-    map: &CliffMap,
-    loc: &[usize; N],
-    ux: &[f32; N],
-    uy: &[f32; N],
-    alive: &[bool; N],
-    on_map: &[bool; N],
-    follow: f32,
-) -> [FollowWeights; N] {
-    follow_weights_body::<N>(map, loc, ux, uy, alive, on_map, follow)
-}
-
-#[inline(always)]
-fn follow_weights_body<const N: usize>(
     map: &CliffMap,
     loc: &[usize; N],
     ux: &[f32; N],
