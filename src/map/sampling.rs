@@ -407,4 +407,119 @@ impl CliffMap {
         });
         per!(V, |v| _mm256_fmadd_ps(sigma[v], z[v], mu[v]))
     }
+
+    /// The follow draw ([`lane_following`](Self::lane_following) after
+    /// [`follow_weights`](Self::follow_weights)) at the locations `loc` of `V` registers
+    /// of eight lanes, for the headings `(ux, uy)`: the same bits, the follow blocks read
+    /// slot by slot with gathers (each slot's weight for all eight lanes at once, with
+    /// the operations of the one-location forms in the same order).
+    ///
+    /// # Safety
+    /// The processor must have AVX2 and FMA, the map's follow weights must fit
+    /// ([`follow_weights_fit`](Self::follow_weights_fit)), `width` must be
+    /// [`lane_width`](Self::lane_width), and every lane of `loc` a location of the map.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    #[inline]
+    #[allow(clippy::too_many_arguments)] // the draw's inputs, eight lanes each
+    pub(crate) unsafe fn lane_following8<const V: usize>(
+        &self,
+        width: usize,
+        loc: &[std::arch::x86_64::__m256i; V],
+        ux: &[std::arch::x86_64::__m256; V],
+        uy: &[std::arch::x86_64::__m256; V],
+        kappa: f32,
+        u: &[std::arch::x86_64::__m256; V],
+        z: &[std::arch::x86_64::__m256; V],
+    ) -> [std::arch::x86_64::__m256; V] {
+        use super::sampling_tables::{FollowBlock, follow_avx};
+        use crate::math::fastmath::x8::per;
+        use std::arch::x86_64::*;
+        use std::mem::{offset_of, size_of};
+        debug_assert!(self.follow_fits && self.lane.width == Some(width));
+        // every location has the same number of blocks (one or two) where they fit
+        let blocks = (self.follow_start[1] - self.follow_start[0]) as usize;
+        let floats = size_of::<FollowBlock>() / 4;
+        let field = |offset: usize| offset / 4;
+        let (weight, cos_mu, sin_mu) = (
+            field(offset_of!(FollowBlock, weight)),
+            field(offset_of!(FollowBlock, cos_mu)),
+            field(offset_of!(FollowBlock, sin_mu)),
+        );
+        let base = self.follow.as_ptr() as *const f32;
+        let first = per!(V, |v| _mm256_mullo_epi32(
+            loc[v],
+            _mm256_set1_epi32((blocks * floats) as i32)
+        ));
+        // slot s of a location: block s / 4, component s % 4
+        let at = |s: usize, f: usize| (s / 4) * floats + f + s % 4;
+        // Slots past the widest mixture (the lane tables' width) are padding at every
+        // location: weight 0 and the location's last direction again, so they neither
+        // raise the largest cosine nor add to the total, and their running sums are the
+        // total. Only the first `slots` are read.
+        let slots = width.min(4 * blocks);
+        // the cosines of the heading with each slot's mean direction, and the largest
+        let mut cos = [[_mm256_setzero_ps(); V]; 8];
+        let mut most = [_mm256_set1_ps(-1.0); V];
+        for (s, c) in cos.iter_mut().enumerate().take(slots) {
+            for v in 0..V {
+                // SAFETY: the slot's float lies in lane v's location's blocks.
+                let (cm, sm) = unsafe {
+                    (
+                        _mm256_i32gather_ps::<4>(base.add(at(s, cos_mu)), first[v]),
+                        _mm256_i32gather_ps::<4>(base.add(at(s, sin_mu)), first[v]),
+                    )
+                };
+                c[v] = _mm256_add_ps(_mm256_mul_ps(ux[v], cm), _mm256_mul_ps(uy[v], sm));
+                most[v] = _mm256_max_ps(most[v], c[v]);
+            }
+        }
+        // the weights' running sums (slots past the blocks: the total)
+        let k = _mm256_set1_ps(kappa);
+        let mut total = [_mm256_setzero_ps(); V];
+        let mut cum = [[_mm256_setzero_ps(); V]; 8];
+        for s in 0..slots {
+            for v in 0..V {
+                // SAFETY: as above; AVX2, as this function requires.
+                let (w, e) = unsafe {
+                    (
+                        _mm256_i32gather_ps::<4>(base.add(at(s, weight)), first[v]),
+                        follow_avx::exp_neg(_mm256_mul_ps(k, _mm256_sub_ps(cos[s][v], most[v]))),
+                    )
+                };
+                total[v] = _mm256_add_ps(total[v], _mm256_mul_ps(w, e));
+                cum[s][v] = total[v];
+            }
+        }
+        // the component: how many running sums are at or below u times the total
+        let x = per!(V, |v| _mm256_mul_ps(u[v], total[v]));
+        let mut count = [_mm256_setzero_si256(); V];
+        for c in cum.iter().take(slots) {
+            for v in 0..V {
+                let below = _mm256_castps_si256(_mm256_cmp_ps::<_CMP_GE_OQ>(x[v], c[v]));
+                count[v] = _mm256_sub_epi32(count[v], below);
+            }
+        }
+        // the slots after them (to eight, as the one-location forms count) hold the total
+        let rest = _mm256_set1_epi32(8 - slots as i32);
+        for v in 0..V {
+            let below = _mm256_castps_si256(_mm256_cmp_ps::<_CMP_GE_OQ>(x[v], total[v]));
+            count[v] = _mm256_sub_epi32(count[v], _mm256_mullo_epi32(below, rest));
+        }
+        let w = _mm256_set1_epi32(width as i32);
+        let last = _mm256_set1_epi32(width as i32 - 1);
+        let e = per!(V, |v| _mm256_add_epi32(
+            _mm256_mullo_epi32(loc[v], w),
+            _mm256_min_epi32(count[v], last)
+        ));
+        // SAFETY: e < loc * width + width, within the tables.
+        let mu = per!(V, |v| unsafe {
+            _mm256_i32gather_ps::<4>(self.lane.mu.as_ptr(), e[v])
+        });
+        // SAFETY: as above.
+        let sigma = per!(V, |v| unsafe {
+            _mm256_i32gather_ps::<4>(self.lane.sigma.as_ptr(), e[v])
+        });
+        per!(V, |v| _mm256_fmadd_ps(sigma[v], z[v], mu[v]))
+    }
 }

@@ -242,7 +242,7 @@ fn running_sums(weight: [f32; 8]) -> [f32; 8] {
 
 /// The follow weights of two blocks in one AVX register ([`follow_cumulative_avx2`]).
 #[cfg(target_arch = "x86_64")]
-mod follow_avx {
+pub(super) mod follow_avx {
     use super::FollowBlock;
     use std::arch::x86_64::*;
 
@@ -256,12 +256,13 @@ mod follow_avx {
         unsafe { _mm256_set_m128(_mm_loadu_ps(hi.as_ptr()), _mm_loadu_ps(lo.as_ptr())) }
     }
 
-    /// `follow_sse::exp_neg` on eight lanes, operation for operation.
+    /// `follow_sse::exp_neg` on eight lanes, operation for operation (also the follow
+    /// weights of eight lanes' locations, `CliffMap::lane_following8`).
     ///
     /// # Safety
     /// The processor must have AVX2.
     #[inline(always)]
-    unsafe fn exp_neg(x: __m256) -> __m256 {
+    pub(in crate::map) unsafe fn exp_neg(x: __m256) -> __m256 {
         const MAGIC: f32 = 12_582_912.0;
         const LN2_HI: f32 = 0.693_145_75;
         const LN2_LO: f32 = 1.428_606_8e-6;

@@ -65,13 +65,13 @@ pub(super) struct LaneState<const N: usize> {
     pub(super) ux: [f32; N],
     pub(super) uy: [f32; N],
     theta: [f64; N],
-    speed: [f64; N],
+    pub(super) speed: [f64; N],
     pub(super) loc: [usize; N],
     pub(super) alive: [bool; N],
     on_map: [bool; N],
     coast_left: [u32; N],
     /// The steps' log-densities summed so far (with scores).
-    score: [f32; N],
+    pub(super) score: [f32; N],
     /// Each lane's generator.
     pub(super) rng: LaneRngs<N>,
 }
@@ -317,6 +317,20 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
                     // (`Simd::available`, checked where the call's extras are made), so
                     // AVX2 and FMA exist; the map's lane tables have a width.
                     unsafe { self.roll_paper_avx2::<N>(table, &st, tracks, lens) }
+                }
+                // follow, trust, blend and scores (the `improved` step): in AVX2 registers
+                Some(table) if self.options_avx2_fits::<MOTION>() => {
+                    // SAFETY: AVX2 and FMA as above; the options fit; `table` is the
+                    // table `near` answers from.
+                    unsafe {
+                        self.roll_options_avx2::<N, SCORES>(
+                            table,
+                            &mut st,
+                            (from, to),
+                            tracks,
+                            lens,
+                        )
+                    }
                 }
                 // SAFETY: as above.
                 _ => unsafe {

@@ -37,6 +37,8 @@ mod flow_memo;
 mod lanes;
 #[cfg(target_arch = "x86_64")]
 mod lanes_avx2;
+#[cfg(target_arch = "x86_64")]
+mod lanes_options_avx2;
 mod options;
 pub mod preset;
 mod prune;
