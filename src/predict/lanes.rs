@@ -97,6 +97,13 @@ pub(super) struct Lane {
 }
 
 impl Lane {
+    /// The map location at the sample's position where the lane loop found one (the
+    /// lookup's answer there, kept with the lane), `None` where it did not (an ended
+    /// or coasting sample: look the position up again).
+    pub(super) fn location(&self) -> Option<usize> {
+        (self.alive && self.on_map).then_some(self.loc)
+    }
+
     /// Whether the sample goes on, its position, its heading (a unit vector) and speed.
     pub(super) fn motion(&self) -> (bool, DVec2, [f32; 2], f64) {
         (

@@ -138,7 +138,9 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
         }
         let d = speed * self.params.dt;
         let (beta, kappa) = (self.params.beta as f32, self.extras.follow as f32);
-        let mut loc = (self.near)(p);
+        // (the lane loop looked the position up: its answer again, without the lookup)
+        let mut loc = lane.location().or_else(|| (self.near)(p));
+        debug_assert_eq!(loc, (self.near)(p));
         memo.path.clear();
         // steps walked, and what the rest of the walk is worth (a state seen before)
         let mut n = 0usize;
