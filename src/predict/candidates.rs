@@ -36,10 +36,31 @@ fn rank_key(len: u32, score: f32, i: usize) -> u128 {
     ((len as u128) << 64) | ((s as u128) << 32) | (u32::MAX - i as u32) as u128
 }
 
-/// Order the candidates of reaches `lens` and scores `scores` best first (the furthest
-/// reaching, then the highest-scored, ties to the one drawn first) into
-/// `order[..lens.len()]`, with `keys` as scratch.
-pub(super) fn rank(lens: &[u32], scores: &[f32], keys: &mut Vec<u128>, order: &mut [u32]) {
+/// The `keep` best of the candidates of reaches `lens` and scores `scores` (as
+/// [`rank`] orders them) into `order[..keep]`, in the order they were drawn: a
+/// selection, not a sort, with `keys` as scratch.
+pub(super) fn best(
+    lens: &[u32],
+    scores: &[f32],
+    keep: usize,
+    keys: &mut Vec<u128>,
+    order: &mut [u32],
+) {
+    debug_assert!(keep <= lens.len() && keep <= order.len());
+    if keep == 0 {
+        return;
+    }
+    fill_keys(lens, scores, keys);
+    // (keys are distinct: the best `keep` are one set however they are found)
+    keys.select_nth_unstable_by(keep - 1, |a, b| b.cmp(a));
+    for (o, &key) in order.iter_mut().zip(&keys[..keep]) {
+        *o = u32::MAX - key as u32;
+    }
+    order[..keep].sort_unstable();
+}
+
+/// The candidates' [`rank_key`]s, in the order they were drawn, into `keys`.
+fn fill_keys(lens: &[u32], scores: &[f32], keys: &mut Vec<u128>) {
     keys.clear();
     keys.extend(
         lens.iter()
@@ -47,8 +68,55 @@ pub(super) fn rank(lens: &[u32], scores: &[f32], keys: &mut Vec<u128>, order: &m
             .enumerate()
             .map(|(i, (&l, &s))| rank_key(l, s, i)),
     );
+}
+
+/// Order the candidates of reaches `lens` and scores `scores` best first (the furthest
+/// reaching, then the highest-scored, ties to the one drawn first) into
+/// `order[..lens.len()]`, with `keys` as scratch.
+pub(super) fn rank(lens: &[u32], scores: &[f32], keys: &mut Vec<u128>, order: &mut [u32]) {
+    fill_keys(lens, scores, keys);
     keys.sort_unstable_by(|a, b| b.cmp(a));
     for (o, &key) in order.iter_mut().zip(keys.iter()) {
         *o = u32::MAX - key as u32;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_best_are_the_first_of_the_ranking_in_the_order_drawn() {
+        // reaches with many ties, scores with ties, infinities and both zeros
+        let mut state = 0x2545_f491_4f6c_dd1du64;
+        let mut next = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            state
+        };
+        let special = [f32::NEG_INFINITY, -0.0, 0.0, -2.5, 7.0];
+        let (mut keys, mut a, mut b) = (Vec::new(), vec![0u32; 80], vec![0u32; 80]);
+        for m in [1, 2, 7, 20, 40, 80] {
+            for _ in 0..50 {
+                let lens: Vec<u32> = (0..m).map(|_| (next() % 4) as u32 * 10).collect();
+                let scores: Vec<f32> = (0..m)
+                    .map(|_| match next() % 3 {
+                        0 => special[(next() % 5) as usize],
+                        _ => (next() % 1000) as f32 * -0.37,
+                    })
+                    .collect();
+                rank(&lens, &scores, &mut keys, &mut a);
+                for keep in [1, m / 2, m] {
+                    if keep == 0 {
+                        continue;
+                    }
+                    best(&lens, &scores, keep, &mut keys, &mut b);
+                    let mut first = a[..keep].to_vec();
+                    first.sort_unstable();
+                    assert_eq!(first, b[..keep], "m {m}, keep {keep}");
+                }
+            }
+        }
     }
 }

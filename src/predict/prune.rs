@@ -11,7 +11,7 @@ use glam::DVec2;
 
 #[cfg(doc)]
 use super::PRUNE_SCHEDULE;
-use super::candidates::{Candidates, rank};
+use super::candidates::{Candidates, best};
 use super::flow_memo::{FlowMemo, flow_key};
 use super::lanes::{Lane, Lanes, MAX_LANES, finish_sample};
 use crate::math::fastmath::{acos_f32_with, exp_neg_f32};
@@ -94,10 +94,8 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
                     };
                     reach.push(len + ahead);
                 }
-                rank(reach, &scores[..m], keys, order);
-                let order = &mut order[..keep];
-                order.sort_unstable();
-                for (s, &i) in order.iter().enumerate() {
+                best(reach, &scores[..m], keep, keys, order);
+                for (s, &i) in order[..keep].iter().enumerate() {
                     let i = i as usize;
                     if s != i {
                         lanes[s] = lanes[i];
