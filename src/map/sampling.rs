@@ -392,6 +392,28 @@ impl CliffMap {
                 count[v] = _mm256_sub_epi32(count[v], below);
             }
         }
+        // SAFETY: as this function requires.
+        unsafe { self.lane_entry_draw8(width, row, count, z) }
+    }
+
+    /// The direction drawn from entry `count` (at most the last) of the lane tables'
+    /// rows `row` (`location * width`), with the normals `z`: `mu + sigma z`, fused.
+    ///
+    /// # Safety
+    /// The processor must have AVX2 and FMA, `width` must be
+    /// [`lane_width`](Self::lane_width), and every lane of `row` a row of the tables.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    #[inline]
+    unsafe fn lane_entry_draw8<const V: usize>(
+        &self,
+        width: usize,
+        row: [std::arch::x86_64::__m256i; V],
+        count: [std::arch::x86_64::__m256i; V],
+        z: &[std::arch::x86_64::__m256; V],
+    ) -> [std::arch::x86_64::__m256; V] {
+        use crate::math::fastmath::x8::per;
+        use std::arch::x86_64::*;
         let last = _mm256_set1_epi32(width as i32 - 1);
         let e = per!(V, |v| _mm256_add_epi32(
             row[v],
@@ -507,19 +529,8 @@ impl CliffMap {
             count[v] = _mm256_sub_epi32(count[v], _mm256_mullo_epi32(below, rest));
         }
         let w = _mm256_set1_epi32(width as i32);
-        let last = _mm256_set1_epi32(width as i32 - 1);
-        let e = per!(V, |v| _mm256_add_epi32(
-            _mm256_mullo_epi32(loc[v], w),
-            _mm256_min_epi32(count[v], last)
-        ));
-        // SAFETY: e < loc * width + width, within the tables.
-        let mu = per!(V, |v| unsafe {
-            _mm256_i32gather_ps::<4>(self.lane.mu.as_ptr(), e[v])
-        });
-        // SAFETY: as above.
-        let sigma = per!(V, |v| unsafe {
-            _mm256_i32gather_ps::<4>(self.lane.sigma.as_ptr(), e[v])
-        });
-        per!(V, |v| _mm256_fmadd_ps(sigma[v], z[v], mu[v]))
+        let row = per!(V, |v| _mm256_mullo_epi32(loc[v], w));
+        // SAFETY: as this function requires.
+        unsafe { self.lane_entry_draw8(width, row, count, z) }
     }
 }

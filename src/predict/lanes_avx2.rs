@@ -235,7 +235,7 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
             // SAFETY: AVX2 and FMA; every lane's location is one of the map's (the
             // start's, or one the lookup found), and the tables have this width.
             let t = unsafe { map.lane_direction8(width, &loc, &u, &z) };
-            turn_v(t, &mut ux, &mut uy, neg_beta);
+            turn_v(t, &mut ux, &mut uy, neg_beta, None);
             // Move, and find the sub-cells of the new positions (every register's first,
             // so that their cache misses overlap).
             for v in 0..V {
@@ -314,15 +314,17 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
     }
 }
 
-/// The generic loop's heading update (`turn::<8, Fused, false>`) of `V` registers of
-/// eight lanes: the same bits for finite inputs (see `turn` for what it computes).
+/// The generic loop's heading update (`turn::<8, Fused, GAIN>`) of `V` registers of
+/// eight lanes, the kernel's weight scaled by `gain` where given (`GAIN`): the same bits
+/// for finite inputs (see `turn` for what it computes).
 #[target_feature(enable = "avx2,fma")]
 #[inline]
-fn turn_v<const V: usize>(
+pub(super) fn turn_v<const V: usize>(
     t: [__m256; V],
     x: &mut [__m256; V],
     y: &mut [__m256; V],
     neg_beta: __m256,
+    gain: Option<f32>,
 ) {
     let one = _mm256_set1_ps(1.0);
     let (sin, cos) = x8::sin_cos(t);
@@ -337,6 +339,10 @@ fn turn_v<const V: usize>(
         delta[v]
     ));
     let lambda = x8::exp_neg(arg);
+    let lambda = match gain {
+        Some(g) => per!(V, |v| _mm256_mul_ps(lambda[v], _mm256_set1_ps(g))),
+        None => lambda,
+    };
     let rest = per!(V, |v| _mm256_sub_ps(one, lambda[v]));
     let vx = per!(V, |v| _mm256_fmadd_ps(
         cos[v],

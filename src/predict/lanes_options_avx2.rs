@@ -19,6 +19,7 @@ use std::arch::x86_64::*;
 use glam::DVec2;
 
 use super::lanes::{ANY, LaneState, Lanes};
+use super::lanes_avx2::turn_v;
 use super::{HeadingRule, Point};
 use crate::map::{NeighbourTable, lane_mask};
 use crate::math::fastmath::{self, x8};
@@ -178,7 +179,7 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
             // found, or lane 0's for the padding).
             let t = unsafe { map.lane_following8::<V>(width, &loc, &ux, &uy, follow, &u, &z) };
             // Turn (the kernel's weight scaled by the trust gain).
-            turn_gain_v(
+            turn_v(
                 t,
                 &mut ux,
                 &mut uy,
@@ -339,64 +340,6 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
             }
         }
         lens.copy_from_slice(&out_len[..n]);
-    }
-}
-
-/// The generic loop's heading update (`turn::<8, Fused, GAIN>`) of `V` registers of
-/// eight lanes, the kernel's weight scaled by `gain` where given: the same bits for
-/// finite inputs (see `turn` for what it computes).
-#[target_feature(enable = "avx2,fma")]
-#[inline]
-fn turn_gain_v<const V: usize>(
-    t: [__m256; V],
-    x: &mut [__m256; V],
-    y: &mut [__m256; V],
-    neg_beta: __m256,
-    gain: Option<f32>,
-) {
-    use crate::math::fastmath::x8::per;
-    let one = _mm256_set1_ps(1.0);
-    let (sin, cos) = x8::sin_cos(t);
-    let dot = per!(V, |v| _mm256_fmadd_ps(
-        cos[v],
-        x[v],
-        _mm256_mul_ps(sin[v], y[v])
-    ));
-    let delta = x8::acos(dot);
-    let arg = per!(V, |v| _mm256_mul_ps(
-        _mm256_mul_ps(neg_beta, delta[v]),
-        delta[v]
-    ));
-    let lambda = x8::exp_neg(arg);
-    let lambda = match gain {
-        Some(g) => per!(V, |v| _mm256_mul_ps(lambda[v], _mm256_set1_ps(g))),
-        None => lambda,
-    };
-    let rest = per!(V, |v| _mm256_sub_ps(one, lambda[v]));
-    let vx = per!(V, |v| _mm256_fmadd_ps(
-        cos[v],
-        lambda[v],
-        _mm256_mul_ps(x[v], rest[v])
-    ));
-    let vy = per!(V, |v| _mm256_fmadd_ps(
-        sin[v],
-        lambda[v],
-        _mm256_mul_ps(y[v], rest[v])
-    ));
-    let n2 = per!(V, |v| _mm256_fmadd_ps(
-        vx[v],
-        vx[v],
-        _mm256_mul_ps(vy[v], vy[v])
-    ));
-    let tiny = _mm256_set1_ps(1e-20);
-    let inv = per!(V, |v| _mm256_div_ps(
-        one,
-        _mm256_sqrt_ps(_mm256_max_ps(n2[v], tiny))
-    ));
-    for v in 0..V {
-        let ok = _mm256_cmp_ps::<_CMP_GT_OQ>(n2[v], tiny);
-        x[v] = _mm256_blendv_ps(one, _mm256_mul_ps(vx[v], inv[v]), ok);
-        y[v] = _mm256_blendv_ps(_mm256_setzero_ps(), _mm256_mul_ps(vy[v], inv[v]), ok);
     }
 }
 
