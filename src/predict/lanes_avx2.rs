@@ -372,7 +372,7 @@ pub(super) fn turn_v<const V: usize>(
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use super::*;
     use crate::map::CliffMap;
     use crate::math::Simd;
@@ -420,30 +420,48 @@ mod tests {
         (tracks.iter().map(|p| p.map(f32::to_bits)).collect(), lens)
     }
 
+    /// The real maps (THÖR1, ATC) and the demo map, each with its radius and time step,
+    /// and starts at every `every`-th of its locations' places (a little off each),
+    /// heading every way at walking speeds: the cases the intrinsics loops' tests
+    /// compare with the generic loop.
+    pub(in crate::predict) fn starts_on_maps(
+        every: usize,
+    ) -> Vec<(CliffMap, f64, f64, Vec<State>)> {
+        let data = concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/data/");
+        let thor = CliffMap::load(format!("{data}thor1/cliffmap.csv")).unwrap();
+        let atc = CliffMap::load(format!("{data}atc/cliffmap-20121024.csv")).unwrap();
+        [
+            (thor, 0.7071, 0.4),
+            (atc, 1.0, 1.0),
+            (CliffMap::demo(), 1.0, 0.4),
+        ]
+        .into_iter()
+        .map(|(map, radius, dt)| {
+            let n = map.locations().len();
+            let starts = (0..n)
+                .step_by((n / every).max(1))
+                .enumerate()
+                .map(|(i, l)| State {
+                    position: map.locations()[l].position + DVec2::new(0.1, -0.05),
+                    speed: 0.6 + 0.1 * (i % 9) as f64,
+                    heading: i as f64 * 0.7,
+                    time: 0.0,
+                })
+                .collect();
+            (map, radius, dt, starts)
+        })
+        .collect()
+    }
+
     #[test]
     fn the_intrinsics_give_the_bits_of_the_generic_avx2_loop() {
         if !Simd::Avx2Fma.available() {
             return;
         }
-        let data = concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/data/");
-        let thor = CliffMap::load(format!("{data}thor1/cliffmap.csv")).unwrap();
-        let atc = CliffMap::load(format!("{data}atc/cliffmap-20121024.csv")).unwrap();
-        let demo = CliffMap::demo();
         let mut samples = 0;
-        for (map, radius, dt) in [(&thor, 0.7071, 0.4), (&atc, 1.0, 1.0), (&demo, 1.0, 0.4)] {
+        for (map, radius, dt, starts) in starts_on_maps(15) {
             assert!(map.lane_width().is_some());
-            // starts at locations of the map, heading every way
-            let positions: Vec<DVec2> = (0..map.locations().len())
-                .step_by((map.locations().len() / 15).max(1))
-                .map(|i| map.locations()[i].position + DVec2::new(0.1, -0.05))
-                .collect();
-            for (i, &position) in positions.iter().enumerate() {
-                let state = State {
-                    position,
-                    speed: 0.6 + 0.1 * (i % 9) as f64,
-                    heading: i as f64 * 0.7,
-                    time: 0.0,
-                };
+            for (i, state) in starts.iter().enumerate() {
                 for k in [1, 5, 8, 12, 20, MAX_LANES + 7] {
                     let params = Params {
                         k,
@@ -453,8 +471,8 @@ mod tests {
                         ..Params::default()
                     };
                     let seed = (i * 31 + k) as u64;
-                    let fast = roll(map, &state, &params, true, seed);
-                    let generic = roll(map, &state, &params, false, seed);
+                    let fast = roll(&map, state, &params, true, seed);
+                    let generic = roll(&map, state, &params, false, seed);
                     assert_eq!(fast.1, generic.1, "lengths: start {i}, k {k}");
                     assert_eq!(fast.0, generic.0, "positions: start {i}, k {k}");
                     samples += fast.1.iter().filter(|&&l| l > 5).count();

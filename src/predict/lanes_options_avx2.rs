@@ -351,6 +351,7 @@ mod tests {
     use crate::motion::State;
     use crate::predict::candidates::Candidates;
     use crate::predict::lanes::{Extras, Lane, MAX_LANES};
+    use crate::predict::lanes_avx2::tests::starts_on_maps;
     use crate::predict::seeds::agent_key;
     use crate::predict::{PRUNE_SCHEDULE, Params};
 
@@ -419,24 +420,11 @@ mod tests {
         if !Simd::Avx2Fma.available() {
             return;
         }
-        let data = concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/data/");
-        let thor = CliffMap::load(format!("{data}thor1/cliffmap.csv")).unwrap();
-        let atc = CliffMap::load(format!("{data}atc/cliffmap-20121024.csv")).unwrap();
-        let demo = CliffMap::demo();
         let mut samples = 0;
-        for (map, radius, dt) in [(&thor, 0.7071, 0.4), (&atc, 1.0, 1.0), (&demo, 1.0, 0.4)] {
+        for (map, radius, dt, starts) in starts_on_maps(8) {
+            let map = &map;
             assert!(map.follow_weights_fit() && map.lane_width().is_some());
-            let positions: Vec<DVec2> = (0..map.locations().len())
-                .step_by((map.locations().len() / 8).max(1))
-                .map(|i| map.locations()[i].position + DVec2::new(0.1, -0.05))
-                .collect();
-            for (i, &position) in positions.iter().enumerate() {
-                let state = State {
-                    position,
-                    speed: 0.6 + 0.1 * (i % 9) as f64,
-                    heading: i as f64 * 0.7,
-                    time: 0.0,
-                };
+            for (i, state) in starts.iter().enumerate() {
                 for (c, (k, trust, blend)) in [
                     (1, 0.5, 3.0),
                     (5, 0.5, 3.0),
@@ -471,9 +459,8 @@ mod tests {
                     let seed = (i * 31 + k) as u64;
                     let cases: [Case<'_>; 2] = [(k, k, &[]), (4 * k, k, PRUNE_SCHEDULE)];
                     for (case, scored) in cases.into_iter().zip([c % 2 == 0, c % 3 != 1]) {
-                        let fast = roll(map, &state, &params, &extras, case, scored, true, seed);
-                        let generic =
-                            roll(map, &state, &params, &extras, case, scored, false, seed);
+                        let fast = roll(map, state, &params, &extras, case, scored, true, seed);
+                        let generic = roll(map, state, &params, &extras, case, scored, false, seed);
                         let what = format!("start {i}, k {k}, {} candidates", case.0);
                         assert_eq!(fast.1, generic.1, "lengths: {what}");
                         assert_eq!(fast.0, generic.0, "positions: {what}");
