@@ -239,18 +239,7 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
             // Move, and find the sub-cells of the new positions (every register's first,
             // so that their cache misses overlap).
             for v in 0..V {
-                let hx = [
-                    _mm256_castps256_ps128(ux[v]),
-                    _mm256_extractf128_ps::<1>(ux[v]),
-                ];
-                let hy = [
-                    _mm256_castps256_ps128(uy[v]),
-                    _mm256_extractf128_ps::<1>(uy[v]),
-                ];
-                for h in 0..2 {
-                    px[v][h] = _mm256_fmadd_pd(_mm256_cvtps_pd(hx[h]), dist, px[v][h]);
-                    py[v][h] = _mm256_fmadd_pd(_mm256_cvtps_pd(hy[h]), dist, py[v][h]);
-                }
+                advance8(&mut px[v], &mut py[v], ux[v], uy[v], [dist; 2]);
                 // SAFETY: AVX2 and FMA.
                 probes[v] = unsafe { table.probe8(px[v], py[v]) };
             }
@@ -311,6 +300,26 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
             }
         }
         j
+    }
+}
+
+/// The generic loop's position step (`p + u d`, fused, in double precision) of eight
+/// lanes: positions `x`, `y` (lanes 0-3 in the first register), headings `(ux, uy)`,
+/// metres `d` (lanes 0-3 first).
+#[target_feature(enable = "avx2,fma")]
+#[inline]
+pub(super) fn advance8(
+    x: &mut [__m256d; 2],
+    y: &mut [__m256d; 2],
+    ux: __m256,
+    uy: __m256,
+    d: [__m256d; 2],
+) {
+    let hx = [_mm256_castps256_ps128(ux), _mm256_extractf128_ps::<1>(ux)];
+    let hy = [_mm256_castps256_ps128(uy), _mm256_extractf128_ps::<1>(uy)];
+    for h in 0..2 {
+        x[h] = _mm256_fmadd_pd(_mm256_cvtps_pd(hx[h]), d[h], x[h]);
+        y[h] = _mm256_fmadd_pd(_mm256_cvtps_pd(hy[h]), d[h], y[h]);
     }
 }
 

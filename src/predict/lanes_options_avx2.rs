@@ -19,7 +19,7 @@ use std::arch::x86_64::*;
 use glam::DVec2;
 
 use super::lanes::{ANY, LaneState, Lanes};
-use super::lanes_avx2::turn_v;
+use super::lanes_avx2::{advance8, turn_v};
 use super::{HeadingRule, Point};
 use crate::map::{NeighbourTable, lane_mask};
 use crate::math::fastmath::{self, x8};
@@ -219,19 +219,8 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
             let mut probes = [crate::map::Probe8::default(); V];
             let dt_v = _mm256_set1_pd(dt);
             for v in 0..V {
-                let hx = [
-                    _mm256_castps256_ps128(ux[v]),
-                    _mm256_extractf128_ps::<1>(ux[v]),
-                ];
-                let hy = [
-                    _mm256_castps256_ps128(uy[v]),
-                    _mm256_extractf128_ps::<1>(uy[v]),
-                ];
-                for h in 0..2 {
-                    let dist = _mm256_mul_pd(speed[v][h], dt_v);
-                    px[v][h] = _mm256_fmadd_pd(_mm256_cvtps_pd(hx[h]), dist, px[v][h]);
-                    py[v][h] = _mm256_fmadd_pd(_mm256_cvtps_pd(hy[h]), dist, py[v][h]);
-                }
+                let dist = speed[v].map(|s| _mm256_mul_pd(s, dt_v));
+                advance8(&mut px[v], &mut py[v], ux[v], uy[v], dist);
                 // SAFETY: AVX2 and FMA.
                 probes[v] = unsafe { table.probe8(px[v], py[v]) };
             }
