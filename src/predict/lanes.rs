@@ -117,7 +117,7 @@ impl Lane {
 
 impl<const N: usize> LaneState<N> {
     /// The lanes `lanes` (at most `N`; the others dead).
-    fn load(lanes: &[Lane]) -> Self {
+    pub(super) fn load(lanes: &[Lane]) -> Self {
         let mut st = LaneState {
             px: [0.0; N],
             py: [0.0; N],
@@ -150,7 +150,7 @@ impl<const N: usize> LaneState<N> {
     }
 
     /// Write the first `lanes.len()` lanes into `lanes`.
-    fn store(&self, lanes: &mut [Lane]) {
+    pub(super) fn store(&self, lanes: &mut [Lane]) {
         for (l, lane) in lanes.iter_mut().enumerate() {
             *lane = Lane {
                 px: self.px[l],
@@ -229,14 +229,13 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
         }
     }
 
-    /// Steps `from..to` of one group of at most [`MAX_LANES`] samples of one agent
-    /// (`lens.len()` of them, `tracks` their positions), scored with `SCORES` (else the
-    /// lanes' scores stay as they are), from the lanes `lanes`
+    /// Steps `from..to` of one group of samples of one agent (`lens.len()` of them, at
+    /// most [`stretch_lanes`](Self::stretch_lanes); `tracks` their positions), scored
+    /// with `SCORES` (else the lanes' scores stay as they are), from the lanes `lanes`
     /// (from the agent's start when `from` is 0, the group's samples then numbered from
     /// `first` for their generators), which it updates: a stretch of a pruned
     /// rollout. The tracks' positions after the stretch are left as they are, and the
     /// lanes hold the partial scores ([`finish_sample`] ends a sample).
-    #[allow(clippy::too_many_arguments)] // the group's buffers
     #[allow(clippy::too_many_arguments)] // the group's buffers
     pub(super) fn roll_stretch<const MOTION: u8, const SCORES: bool>(
         &self,
@@ -247,7 +246,13 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
         tracks: &mut [Point],
         lens: &mut [u32],
     ) {
-        debug_assert!(lanes.len() == lens.len() && lens.len() <= MAX_LANES);
+        debug_assert!(lanes.len() == lens.len() && lens.len() <= self.stretch_lanes::<MOTION>());
+        #[cfg(target_arch = "x86_64")]
+        if lens.len() > MAX_LANES {
+            // (groups this large only where the options' AVX2 loop rolls them)
+            self.roll_stretch24::<SCORES>((key, first), lanes, (from, to), tracks, lens);
+            return;
+        }
         self.group_any::<MOTION, SCORES>(
             (key, first),
             Some(lanes),
@@ -257,6 +262,21 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
             lens,
             &mut [],
         );
+    }
+
+    /// The most samples a group of a pruned rollout's stretches holds
+    /// ([`roll_stretch`](Self::roll_stretch)): three full AVX2 registers (24) where the
+    /// options' AVX2 loop rolls them (`lanes_options_avx2.rs`), else [`MAX_LANES`]. (How
+    /// the samples are grouped changes no sample: each draws from its own generator.)
+    pub(super) fn stretch_lanes<const MOTION: u8>(&self) -> usize {
+        #[cfg(target_arch = "x86_64")]
+        if self.extras.simd == Simd::Avx2Fma
+            && self.table.is_some()
+            && self.options_avx2_fits::<MOTION>()
+        {
+            return super::lanes_options_avx2::PACK;
+        }
+        MAX_LANES
     }
 
     /// One group (at most [`MAX_LANES`] samples) in the copy of the loop with the
@@ -365,7 +385,7 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
     /// The lanes of `n` samples at the agent's start, lane `l`'s generator
     /// `lane_seed(key, first + l)`.
     #[inline(always)]
-    fn start<const N: usize, const MOTION: u8>(
+    pub(super) fn start<const N: usize, const MOTION: u8>(
         &self,
         n: usize,
         key: u64,

@@ -18,15 +18,16 @@ use std::arch::x86_64::*;
 
 use glam::DVec2;
 
-use super::lanes::{ANY, LaneState, Lanes};
+use super::lanes::{ANY, Lane, LaneState, Lanes};
 use super::lanes_avx2::{advance8, turn_v};
 use super::{HeadingRule, Point};
 use crate::map::{NeighbourTable, lane_mask};
 use crate::math::fastmath::{self, x8};
 use crate::math::lane_rng::{next8, normal8, unit8};
 
-/// The most lanes one group rolls: three registers of eight.
-const PACK: usize = 24;
+/// The most lanes one group rolls: three registers of eight (also the group size of a
+/// pruned rollout's stretches on this loop: `Lanes::stretch_lanes`).
+pub(super) const PACK: usize = 24;
 
 impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
     /// Whether [`roll_options_avx2`](Self::roll_options_avx2) rolls this call's groups
@@ -42,6 +43,33 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
             && extras.coast_steps == 0
             && map.follow_weights_fit()
             && map.lane_width().is_some()
+    }
+
+    /// [`roll_stretch`](Self::roll_stretch) of a group of 21 to 24 samples (where
+    /// [`stretch_lanes`](Self::stretch_lanes) makes them): the lanes from `lanes` (or
+    /// the agent's start at step 0, the samples numbered from `first`), steps
+    /// `from..to` in this loop, the lanes stored back.
+    pub(super) fn roll_stretch24<const SCORES: bool>(
+        &self,
+        (key, first): (u64, usize),
+        lanes: &mut [Lane],
+        (from, to): (usize, usize),
+        tracks: &mut [Point],
+        lens: &mut [u32],
+    ) {
+        let n = lens.len();
+        assert!(n <= PACK && self.stretch_lanes::<ANY>() == PACK);
+        let table = self.table.expect("a neighbour table (stretch_lanes)");
+        let mut st = if from > 0 {
+            LaneState::<PACK>::load(lanes)
+        } else {
+            lens.fill(0);
+            self.start::<PACK, ANY>(n, key, first)
+        };
+        // SAFETY: `stretch_lanes` chose this loop: AVX2 and FMA are the rollout's path
+        // (available), the options fit, and `table` is the table `near` answers from.
+        unsafe { self.roll_options_avx2::<PACK, SCORES>(table, &mut st, (from, to), tracks, lens) };
+        st.store(lanes);
     }
 
     /// Steps `from..to` of the `lens.len()` samples of one group (at most `N`, at most

@@ -13,7 +13,7 @@ use glam::DVec2;
 use super::PRUNE_SCHEDULE;
 use super::candidates::{Candidates, best};
 use super::flow_memo::{FlowMemo, flow_key};
-use super::lanes::{Lane, Lanes, MAX_LANES, finish_sample};
+use super::lanes::{Lane, Lanes, finish_sample};
 use crate::math::fastmath::{acos_f32_with, exp_neg_f32};
 use crate::math::simd::Separate;
 
@@ -62,8 +62,9 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
             };
             // the last stretch of exactly `k` needs no scores if nothing ranks by them
             let scored = ranked || to < steps || m > k;
-            for g in (0..m).step_by(MAX_LANES) {
-                let e = (g + MAX_LANES).min(m);
+            let group = self.stretch_lanes::<MOTION>();
+            for g in (0..m).step_by(group) {
+                let e = (g + group).min(m);
                 let (lanes, lens) = (&mut lanes[g..e], &mut lens[g..e]);
                 let tracks = &mut tracks[g * steps..e * steps];
                 if scored {
