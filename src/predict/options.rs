@@ -172,7 +172,7 @@ impl Options {
     /// Measured per call on the benchmark people (`cargo bench --bench options_cost`,
     /// BENCHMARKS.md): scores, the speed kernel and coasting each cost under 1.3 times
     /// the paper, follow about 1.6 times; `improved` (4 candidates pruned, follow,
-    /// scores, trust, blend, consensus) 4.4-5.4 times in wall clock on either
+    /// scores, trust, blend, consensus) 4.4-4.9 times in wall clock on either
     /// instruction path and 5.6 times in instructions (up to 6.7 on the ATC person),
     /// 8.3 times with its earlier 5 candidates pruned halfway, 10-11 without pruning.
     ///
