@@ -56,6 +56,12 @@ pub(super) const ANY: u8 = 2;
 /// one group of 20 lanes 13.7 us.
 pub(super) const MAX_LANES: usize = 20;
 
+/// The most samples a group of the AVX2 intrinsics loops holds: three registers of
+/// eight (`lanes_avx2.rs`, `lanes_options_avx2.rs`), and so the groups of a pruned
+/// rollout's stretches where the options' loop rolls them
+/// ([`Lanes::stretch_lanes`]).
+pub(super) const PACK: usize = 24;
+
 /// Where the lanes of one group are between stretches of steps: what the lane loop
 /// carries from one step to the next (lanes past the group's samples stay dead).
 #[derive(Debug, Clone, Copy)]
@@ -274,7 +280,7 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
             && self.table.is_some()
             && self.options_avx2_fits::<MOTION>()
         {
-            return super::lanes_options_avx2::PACK;
+            return PACK;
         }
         MAX_LANES
     }

@@ -10,13 +10,10 @@ use std::arch::x86_64::*;
 use glam::DVec2;
 
 use super::Point;
-use super::lanes::{LaneState, Lanes};
+use super::lanes::{LaneState, Lanes, PACK};
 use crate::map::{NeighbourTable, Probe8, lane_mask};
 use crate::math::fastmath::x8::{self, per};
 use crate::math::lane_rng::{next8, normal8, unit8};
-
-/// The most lanes one group rolls: three registers of eight.
-const PACK: usize = 24;
 
 /// The lanes of one group between stretches of the AVX2 loop, lane by lane: the first
 /// `n` in use (after a [`compact`](Pack::compact), all of them alive).

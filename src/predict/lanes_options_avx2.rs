@@ -18,16 +18,12 @@ use std::arch::x86_64::*;
 
 use glam::DVec2;
 
-use super::lanes::{ANY, Lane, LaneState, Lanes};
+use super::lanes::{ANY, Lane, LaneState, Lanes, PACK};
 use super::lanes_avx2::{advance8, turn_v};
 use super::{HeadingRule, Point};
 use crate::map::{NeighbourTable, lane_mask};
 use crate::math::fastmath::{self, x8};
 use crate::math::lane_rng::{next8, normal8, unit8};
-
-/// The most lanes one group rolls: three registers of eight (also the group size of a
-/// pruned rollout's stretches on this loop: `Lanes::stretch_lanes`).
-pub(super) const PACK: usize = 24;
 
 impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
     /// Whether [`roll_options_avx2`](Self::roll_options_avx2) rolls this call's groups
