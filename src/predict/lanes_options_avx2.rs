@@ -143,6 +143,8 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
         for l in 0..N {
             alive_bits |= (st.alive[l] as u32) << l;
         }
+        // (lanes past the group's samples are dead: the live ones are all samples)
+        debug_assert_eq!(alive_bits >> n, 0);
         let rng_words: [[u32; PACK]; 4] = std::array::from_fn(|w| {
             std::array::from_fn(|l| if l < N { st.rng.s[w][l] } else { 0 })
         });
@@ -177,7 +179,6 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
                 std::ptr::null_mut()
             }
         });
-        let real = if n >= 32 { u32::MAX } else { (1u32 << n) - 1 };
         let mut heading = [0.0f32; PACK];
         let mut at = [0i32; PACK];
         let mut step_score = [0.0f32; PACK];
@@ -210,8 +211,7 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
                 neg_beta,
                 trusting.then_some(gain as f32),
             );
-            // The step's log-density, lane by lane for the lanes that drew.
-            let drew = alive_bits & real;
+            // The step's log-density, lane by lane for the live lanes (all drew).
             if SCORES {
                 let angle = x8::atan2(uy, ux);
                 // SAFETY: the arrays hold 8 V lanes.
@@ -230,7 +230,7 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
                         }
                     }
                 }
-                let mut bits = drew;
+                let mut bits = alive_bits;
                 while bits != 0 {
                     let l = bits.trailing_zeros() as usize;
                     bits &= bits - 1;
@@ -297,7 +297,7 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
                 now_bits |= (_mm256_movemask_ps(_mm256_castsi256_ps(now)) as u32) << (8 * v);
             }
             alive_bits = now_bits;
-            let mut bits = now_bits & real;
+            let mut bits = now_bits;
             while bits != 0 {
                 let l = bits.trailing_zeros() as usize;
                 bits &= bits - 1;
@@ -305,7 +305,7 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
                 // positions, and j < to <= steps.
                 unsafe { *rows[l].add(j) = [xs[l], ys[l]] };
             }
-            if now_bits & ((1u64 << N) - 1) as u32 == 0 {
+            if now_bits == 0 {
                 break;
             }
         }
