@@ -23,7 +23,8 @@
 //! (default 200 rounds of 50 calls; the cases named, beside the default one, or all:
 //! scores, speed, coast, follow, speed_scores, all, improved (the preset's options),
 //! improved_unpruned (the same without [`Options::prune`]); `baseline` runs the
-//! baseline path alone; `thor1` or `atc` that person alone).
+//! baseline path alone, `avx2` the AVX2 + FMA path alone (for profilers); `thor1` or
+//! `atc` that person alone).
 
 use std::hint::black_box;
 use std::time::Instant;
@@ -58,11 +59,14 @@ fn main() {
         .filter(|a| !a.starts_with('-') && a.parse::<usize>().is_err())
         .collect();
     let baseline_only = only.iter().any(|o| o == "baseline");
+    let avx2_only = only.iter().any(|o| o == "avx2");
     // `thor1` or `atc`: that person alone
     let person = only.iter().find(|o| *o == "thor1" || *o == "atc").cloned();
-    only.retain(|o| o != "baseline" && o != "thor1" && o != "atc");
+    only.retain(|o| !["baseline", "avx2", "thor1", "atc"].contains(&o.as_str()));
     let paths: Vec<Simd> = if baseline_only || !Simd::Avx2Fma.available() {
         vec![Simd::Baseline]
+    } else if avx2_only {
+        vec![Simd::Avx2Fma]
     } else {
         vec![Simd::Baseline, Simd::Avx2Fma]
     };
