@@ -11,8 +11,9 @@
 //! same IEEE operations, except that the AVX2 copy fuses the lane loop's multiply-adds
 //! (one rounding instead of two: the normal draw, the sampled direction, the heading
 //! update, the position step), so the two paths give positions that differ in their
-//! last bits. (The paper's method on AVX2 runs in intrinsics, eight samples to a
-//! register, with the bits of the generic AVX2 copy.) On one path results are
+//! last bits. (The paper's method, with or without scores, and `improved`'s step run
+//! in intrinsics on AVX2, eight samples to a register, with the bits of the generic
+//! AVX2 copy.) On one path results are
 //! deterministic for a seed, and every process on a machine (the daemon, in-process
 //! calls, Python) takes the same path unless `CLIFF_SIMD` tells one otherwise.
 //!

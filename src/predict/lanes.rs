@@ -338,10 +338,9 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
         #[cfg(target_arch = "x86_64")]
         if self.extras.simd == Simd::Avx2Fma {
             match self.table {
-                // the paper's method, whole: in AVX2 registers
+                // the paper's method, whole, with or without scores: in AVX2 registers
                 Some(table)
                     if MOTION == PAPER
-                        && !SCORES
                         && lanes.is_none()
                         && self.params.heading == HeadingRule::CircularMean
                         && self.map.lane_width().is_some() =>
@@ -349,7 +348,7 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
                     // SAFETY: `Extras::simd` is a path the processor has
                     // (`Simd::available`, checked where the call's extras are made), so
                     // AVX2 and FMA exist; the map's lane tables have a width.
-                    unsafe { self.roll_paper_avx2::<N>(table, &st, tracks, lens) }
+                    unsafe { self.roll_paper_avx2::<N, SCORES>(table, &mut st, tracks, lens) }
                 }
                 // follow, trust, blend and scores (the `improved` step): in AVX2 registers
                 Some(table) if self.options_avx2_fits::<MOTION>() => {

@@ -1,9 +1,10 @@
 //! The paper's method on AVX2 + FMA, eight samples to a register: the lane loop's
-//! `PAPER` flavour without scores, written with intrinsics so that every part of a step
-//! runs on eight lanes at once (the generators, the normal draw, the component choice
-//! and the map lookup by gathers, the bookkeeping of live lanes by masks). It gives the
-//! bits of the generic loop's AVX2 copy (`Lanes::roll_body` with fused multiply-adds):
-//! the same draws, the same heading kernel (`turn`, here `turn_v`), the same lookups.
+//! `PAPER` flavour, with or without scores, written with intrinsics so that every part
+//! of a step runs on eight lanes at once (the generators, the normal draw, the component
+//! choice and the map lookup by gathers, the bookkeeping of live lanes by masks; with
+//! scores, the headings' angles, and the densities lane by lane). It gives the bits of
+//! the generic loop's AVX2 copy (`Lanes::roll_body` with fused multiply-adds): the same
+//! draws, the same heading kernel (`turn`, here `turn_v`), the same lookups and scores.
 
 use std::arch::x86_64::*;
 
@@ -32,16 +33,20 @@ struct Pack {
     /// All ones for a live lane.
     alive: [i32; PACK],
     len: [u32; PACK],
+    /// The sample's log-densities summed so far (with scores).
+    score: [f32; PACK],
     rng: [[u32; PACK]; 4],
 }
 
 impl Pack {
-    /// Keep the live lanes (in order); the others' lengths go to `lens`.
-    fn compact(&mut self, lens: &mut [u32]) {
+    /// Keep the live lanes (in order); the others' lengths go to `lens`, their scores
+    /// to `scores`.
+    fn compact(&mut self, lens: &mut [u32], scores: &mut [f32]) {
         let mut k = 0;
         for l in 0..self.n {
             if self.alive[l] == 0 {
                 lens[self.sample[l] as usize] = self.len[l];
+                scores[self.sample[l] as usize] = self.score[l];
                 continue;
             }
             if k != l {
@@ -55,6 +60,7 @@ impl Pack {
                 self.loc[k] = self.loc[l];
                 self.alive[k] = self.alive[l];
                 self.len[k] = self.len[l];
+                self.score[k] = self.score[l];
                 for w in 0..4 {
                     self.rng[w][k] = self.rng[w][l];
                 }
@@ -79,7 +85,8 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
     /// A whole rollout of the paper's method (heading rule `CircularMean`) for the
     /// `lens.len()` samples of one group (at most 24), from their start `st`, looking
     /// the map up in `table` (the table `near` answers from). Writes the positions and
-    /// lengths; the caller ends the samples (`finish_sample`).
+    /// lengths, and with `SCORES` the samples' summed log-densities to `st.score`; the
+    /// caller ends the samples (`finish_sample`).
     ///
     /// The lanes roll in three, two or one registers of eight: whenever the live
     /// samples fit in fewer registers, the live lanes are packed together and the rest
@@ -93,10 +100,10 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
     /// (`CliffMap::lane_width`).
     #[target_feature(enable = "avx2,fma")]
     #[inline(never)]
-    pub(super) unsafe fn roll_paper_avx2<const N: usize>(
+    pub(super) unsafe fn roll_paper_avx2<const N: usize, const SCORES: bool>(
         &self,
         table: &NeighbourTable,
-        st: &LaneState<N>,
+        st: &mut LaneState<N>,
         tracks: &mut [Point],
         lens: &mut [u32],
     ) {
@@ -115,6 +122,7 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
             loc: [st.loc[0] as i32; PACK],
             alive: [0; PACK],
             len: [0; PACK],
+            score: [0.0; PACK],
             rng: [[0; PACK]; 4],
         };
         for l in 0..n {
@@ -125,6 +133,7 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
             pack.uy[l] = st.uy[l];
             pack.loc[l] = st.loc[l] as i32;
             pack.alive[l] = -(st.alive[l] as i32);
+            pack.score[l] = st.score[l];
             for (word, w) in pack.rng.iter_mut().zip(st.rng.get(l)) {
                 word[l] = w;
             }
@@ -138,17 +147,18 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
             j = unsafe {
                 match pack.n.div_ceil(8) {
                     0 => break,
-                    1 => self.stretch::<1>(table, &mut pack, first, (j, steps), tracks),
-                    2 => self.stretch::<2>(table, &mut pack, first, (j, steps), tracks),
-                    _ => self.stretch::<3>(table, &mut pack, first, (j, steps), tracks),
+                    1 => self.stretch::<1, SCORES>(table, &mut pack, first, (j, steps), tracks),
+                    2 => self.stretch::<2, SCORES>(table, &mut pack, first, (j, steps), tracks),
+                    _ => self.stretch::<3, SCORES>(table, &mut pack, first, (j, steps), tracks),
                 }
             };
             debug_assert!(j > before);
             first = false;
-            pack.compact(lens);
+            pack.compact(lens, &mut st.score[..n]);
         }
         for l in 0..pack.n {
             lens[pack.sample[l] as usize] = pack.len[l];
+            st.score[pack.sample[l] as usize] = pack.score[l];
         }
     }
 
@@ -157,12 +167,14 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
     /// lanes fit in fewer registers; the lanes stored back. The step to go on from. With
     /// `first` the lanes take the first step's words from their generators (else the
     /// pack holds them). `tracks` holds the group's samples, `steps` positions each.
+    /// With `SCORES` each step's log-density is added to the scores of the lanes that go
+    /// on.
     ///
     /// # Safety
     /// As [`roll_paper_avx2`](Self::roll_paper_avx2).
     #[target_feature(enable = "avx2,fma")]
     #[inline]
-    unsafe fn stretch<const V: usize>(
+    unsafe fn stretch<const V: usize, const SCORES: bool>(
         &self,
         table: &NeighbourTable,
         pack: &mut Pack,
@@ -185,11 +197,13 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
         let mut loc = [_mm256_setzero_si256(); V];
         let mut alive = [_mm256_setzero_si256(); V];
         let mut len = [_mm256_setzero_si256(); V];
+        let mut score = [_mm256_setzero_ps(); V];
         let mut rng = [[_mm256_setzero_si256(); 4]; V];
         // SAFETY: the pack's arrays hold 8 V lanes and more.
         unsafe {
             for v in 0..V {
                 let o = 8 * v;
+                score[v] = _mm256_loadu_ps(pack.score.as_ptr().add(o));
                 for h in 0..2 {
                     px[v][h] = _mm256_loadu_pd(pack.px.as_ptr().add(o + 4 * h));
                     py[v][h] = _mm256_loadu_pd(pack.py.as_ptr().add(o + 4 * h));
@@ -226,6 +240,8 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
         let fewer = 8 * (V - 1) as u32;
         let mut probes = [Probe8::default(); V];
         let mut pairs = [[0.0f32; 2]; 8];
+        let speed = self.state.speed as f32;
+        let mut step_score = [0.0f32; PACK];
         let mut j = from;
         while j < steps {
             // Draw (the component and its direction) and turn.
@@ -233,6 +249,28 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
             // start's, or one the lookup found), and the tables have this width.
             let t = unsafe { map.lane_direction8(width, &loc, &u, &z) };
             turn_v(t, &mut ux, &mut uy, neg_beta, None);
+            if SCORES {
+                // the step's log-density, lane by lane for the live lanes
+                let angle = x8::atan2(uy, ux);
+                let mut heading = [0.0f32; PACK];
+                let mut at = [0i32; PACK];
+                // SAFETY: the arrays hold 8 V lanes.
+                unsafe {
+                    for v in 0..V {
+                        _mm256_storeu_ps(heading.as_mut_ptr().add(8 * v), angle[v]);
+                        _mm256_storeu_si256(at.as_mut_ptr().add(8 * v) as *mut __m256i, loc[v]);
+                    }
+                }
+                let mut bits = 0u32;
+                for (v, a) in alive.iter().enumerate() {
+                    bits |= (_mm256_movemask_ps(_mm256_castsi256_ps(*a)) as u32) << (8 * v);
+                }
+                while bits != 0 {
+                    let l = bits.trailing_zeros() as usize;
+                    bits &= bits - 1;
+                    step_score[l] = map.step_log_density_at(at[l] as usize, heading[l], speed);
+                }
+            }
             // Move, and find the sub-cells of the new positions (every register's first,
             // so that their cache misses overlap).
             for v in 0..V {
@@ -268,6 +306,15 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
                 let now = _mm256_and_si256(alive[v], lane_mask(found));
                 loc[v] = _mm256_blendv_epi8(loc[v], code, now);
                 len[v] = _mm256_blendv_epi8(len[v], step_len, now);
+                if SCORES {
+                    // SAFETY: the array holds 8 V lanes.
+                    let add = unsafe { _mm256_loadu_ps(step_score.as_ptr().add(8 * v)) };
+                    score[v] = _mm256_blendv_ps(
+                        score[v],
+                        _mm256_add_ps(score[v], add),
+                        _mm256_castsi256_ps(now),
+                    );
+                }
                 alive[v] = now;
                 alive_now += (_mm256_movemask_ps(_mm256_castsi256_ps(now)) as u32).count_ones();
             }
@@ -291,6 +338,7 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
                 _mm256_storeu_si256(pack.loc.as_mut_ptr().add(o) as *mut __m256i, loc[v]);
                 _mm256_storeu_si256(pack.alive.as_mut_ptr().add(o) as *mut __m256i, alive[v]);
                 _mm256_storeu_si256(pack.len.as_mut_ptr().add(o) as *mut __m256i, len[v]);
+                _mm256_storeu_ps(pack.score.as_mut_ptr().add(o), score[v]);
                 for (word, reg) in pack.rng.iter_mut().zip(rng[v]) {
                     _mm256_storeu_si256(word.as_mut_ptr().add(o) as *mut __m256i, reg);
                 }
@@ -388,14 +436,15 @@ pub(super) mod tests {
     use crate::predict::seeds::agent_key;
 
     /// The samples of `k` lanes of the paper's method from `state`, through the table
-    /// (the intrinsics) or not (the generic loop's AVX2 copy).
+    /// (the intrinsics) or not (the generic loop's AVX2 copy): the positions' bits, the
+    /// lengths, and with `scored` the scores' bits.
     fn roll(
         map: &CliffMap,
         state: &State,
         params: &Params,
-        through_table: bool,
+        (through_table, scored): (bool, bool),
         seed: u64,
-    ) -> (Vec<[u32; 2]>, Vec<u32>) {
+    ) -> (Vec<[u32; 2]>, Vec<u32>, Vec<u32>) {
         let table = map.build_table(params.radius, false).unwrap();
         let near = |p| table.best_near(p);
         let extras = Extras {
@@ -422,8 +471,18 @@ pub(super) mod tests {
         let steps = params.steps();
         let mut tracks = vec![[0.0f32; 2]; params.k * steps];
         let mut lens = vec![0u32; params.k];
-        lanes.roll_agent::<PAPER, false>(agent_key(seed, 0), &mut tracks, &mut lens, &mut []);
-        (tracks.iter().map(|p| p.map(f32::to_bits)).collect(), lens)
+        let mut scores = vec![0.0f32; params.k];
+        let key = agent_key(seed, 0);
+        if scored {
+            lanes.roll_agent::<PAPER, true>(key, &mut tracks, &mut lens, &mut scores);
+        } else {
+            lanes.roll_agent::<PAPER, false>(key, &mut tracks, &mut lens, &mut []);
+        }
+        (
+            tracks.iter().map(|p| p.map(f32::to_bits)).collect(),
+            lens,
+            scores.iter().map(|s| s.to_bits()).collect(),
+        )
     }
 
     /// The real maps (THÖR1, ATC) and the demo map, each with its radius and time step,
@@ -464,7 +523,7 @@ pub(super) mod tests {
         if !Simd::Avx2Fma.available() {
             return;
         }
-        let mut samples = 0;
+        let (mut samples, mut scored_samples) = (0, 0);
         for (map, radius, dt, starts) in starts_on_maps(15) {
             assert!(map.lane_width().is_some());
             for (i, state) in starts.iter().enumerate() {
@@ -477,14 +536,29 @@ pub(super) mod tests {
                         ..Params::default()
                     };
                     let seed = (i * 31 + k) as u64;
-                    let fast = roll(&map, state, &params, true, seed);
-                    let generic = roll(&map, state, &params, false, seed);
-                    assert_eq!(fast.1, generic.1, "lengths: start {i}, k {k}");
-                    assert_eq!(fast.0, generic.0, "positions: start {i}, k {k}");
-                    samples += fast.1.iter().filter(|&&l| l > 5).count();
+                    for scored in [false, true] {
+                        let fast = roll(&map, state, &params, (true, scored), seed);
+                        let generic = roll(&map, state, &params, (false, scored), seed);
+                        let what = format!("start {i}, k {k}, scores {scored}");
+                        assert_eq!(fast.1, generic.1, "lengths: {what}");
+                        assert_eq!(fast.0, generic.0, "positions: {what}");
+                        assert_eq!(fast.2, generic.2, "scores: {what}");
+                        samples += fast.1.iter().filter(|&&l| l > 5).count();
+                        if scored {
+                            // (finite scores where a sample went on)
+                            scored_samples += fast
+                                .2
+                                .iter()
+                                .filter(|&&b| f32::from_bits(b).is_finite() && b != 0)
+                                .count();
+                        }
+                    }
                 }
             }
         }
-        assert!(samples > 500, "{samples}");
+        assert!(
+            samples > 500 && scored_samples > 250,
+            "{samples}, {scored_samples}"
+        );
     }
 }
