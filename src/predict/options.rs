@@ -165,41 +165,47 @@ impl Options {
     /// How many times the paper's work a call with these options does, at most: 2 with
     /// follow on (else 1), and with [`Options::candidates`] > 1 that times the samples'
     /// steps rolled per kept sample's step (the candidates, or fewer when
-    /// [pruned](Options::prune)) times 1.25 for their scores, plus 1 for a pruned
-    /// rollout's flow walks at its checkpoints, rounded up. What a daemon's cost limits
-    /// and its scheduler count.
+    /// [pruned](Options::prune)), times 1.25 for their scores without follow (follow's
+    /// 2 includes them), plus 1 for a pruned rollout's flow walks at its checkpoints,
+    /// rounded up. What a daemon's cost limits and its scheduler count.
     ///
-    /// Measured per call on the benchmark people (`cargo bench --bench options_cost`,
-    /// BENCHMARKS.md): scores, the speed kernel and coasting each cost under 1.3 times
-    /// the paper, follow about 1.6 times; `improved` (4 candidates pruned, follow,
-    /// scores, trust, blend, consensus) 4.4-4.9 times in wall clock on either
-    /// instruction path and 5.6 times in instructions (up to 6.7 on the ATC person),
-    /// 8.3 times with its earlier 5 candidates pruned halfway, 10-11 without pruning.
+    /// Measured per call on the benchmark people, against the paper's method on the
+    /// same instructions (`cargo bench --bench options_cost`, BENCHMARKS.md): scores
+    /// cost 1.2-1.3 times the paper, follow 1.3-1.7 times; `improved` (4 candidates
+    /// pruned, follow, scores, trust, blend, consensus) 4.3-4.8 times on the baseline
+    /// path and up to 5.4 on AVX2 + FMA, 6.9-7.8 without pruning. The speed kernel and
+    /// coasting cost 1.2 times the paper on the baseline path (the count here) but 1.5-1.9
+    /// on AVX2, where they run the generic loop beside the paper's eight-lane one
+    /// (2.2-2.5 with both and scores).
     ///
     /// ```
     /// use cliff::predict::Options;
     /// assert_eq!(Options::default().cost_factor(), 1);
     /// assert_eq!(Options { scores: true, speed_beta: 1.0, ..Options::default() }.cost_factor(), 1);
-    /// assert_eq!(Options { follow: 4.0, candidates: 5, ..Options::default() }.cost_factor(), 13);
+    /// assert_eq!(Options { follow: 4.0, candidates: 5, ..Options::default() }.cost_factor(), 10);
+    /// assert_eq!(Options { candidates: 5, ..Options::default() }.cost_factor(), 7);
     /// let pruned = Options { follow: 4.0, candidates: 4, prune: true, ..Options::default() };
-    /// // 4 to a fifth of the horizon, 2 to seven tenths, then 1: 2.1 x 2 x 1.25 + 1
-    /// assert_eq!(pruned.cost_factor(), 7);
+    /// // 4 to a fifth of the horizon, 2 to seven tenths, then 1: 2.1 x 2 + 1
+    /// assert_eq!(pruned.cost_factor(), 6);
     /// ```
     pub fn cost_factor(&self) -> usize {
-        let follow = if self.follow > 0.0 { 2.0 } else { 1.0 };
+        let follow = self.follow > 0.0;
+        let step = if follow { 2.0 } else { 1.0 };
         let candidates = self.candidates.max(1) as usize;
         if candidates == 1 {
-            return follow as usize;
+            return step as usize;
         }
         let drawn = if self.prune {
             pruned_share(candidates)
         } else {
             candidates as f64
         };
-        // candidates are scored (to rank them), at about 1.25 times the step; a pruned
-        // rollout walks the flow from its candidates at each checkpoint
+        // candidates are scored (to rank them): about 1.25 times the paper's step, and
+        // within follow's step of 2 (its loop computes them beside the follow draw); a
+        // pruned rollout walks the flow from its candidates at a checkpoint
+        let scored = if follow { 1.0 } else { 1.25 };
         let walks = if self.prune { 1.0 } else { 0.0 };
-        (drawn * follow * 1.25 + walks).ceil() as usize
+        (drawn * step * scored + walks).ceil() as usize
     }
 
     /// Check the options; the error names the first unusable one.
