@@ -58,8 +58,9 @@ pub struct Preset {
 ///
 /// On held-out people (maps from training data only, 10 seeds, paired over the same
 /// people or windows; docs/accuracy.md) its mean ADE and FDE are no higher than constant
-/// velocity's at any horizon on THÖR1, THÖR3, THÖR-MAGNI and ATC, and on ATC's dev hours
-/// 14 % below the paper's at 5 s, 17 % at 20 s and 12 % at 50 s. Its content is set by
+/// velocity's at any horizon on THÖR3, THÖR-MAGNI and ATC, and on THÖR1 but at its last
+/// horizons (FDE 1 % above constant velocity's at 11-12 s, a handful of people), and on
+/// ATC's dev hours 14 % below the paper's at 5 s, 17 % at 20 s and 12 % at 50 s. Its content is set by
 /// the project's held-out experiments and may change between versions; `cliff` (the
 /// paper's method) stays as it is.
 pub const IMPROVED: Preset = Preset {
