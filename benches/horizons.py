@@ -41,7 +41,7 @@ DATA = os.path.join(ROOT, "..", "shared", "data")
 PARTS = {
     "beta": ["--beta", "2"],
     "follow": ["--follow", "4"],
-    "candidates": ["--candidates", "4", "--prune"],
+    "candidates": ["--candidates", "2", "--prune"],
     "speed prior": ["--speed-prior"],
     "trust": ["--trust", "0.5"],
     "blend": ["--blend", "3"],

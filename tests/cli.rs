@@ -446,7 +446,7 @@ fn improved_is_cliff_with_the_preset_in_eval_and_predict() {
         "--follow",
         "4",
         "--candidates",
-        "4",
+        "2",
         "--prune",
         "--speed-prior",
         "--trust",

@@ -103,6 +103,12 @@ pub(super) struct Lane {
 }
 
 impl Lane {
+    /// The same sample drawing from the generator `rng` from now on (a copy of a
+    /// candidate that a checkpoint keeps: [`Checkpoint`](super::Checkpoint)).
+    pub(super) fn reseed(&mut self, rng: [u32; 4]) {
+        self.rng = rng;
+    }
+
     /// The map location at the sample's position where the lane loop found one (the
     /// lookup's answer there, kept with the lane), `None` where it did not (an ended
     /// or coasting sample: look the position up again).

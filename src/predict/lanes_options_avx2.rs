@@ -366,13 +366,13 @@ mod tests {
     use crate::predict::lanes::{Extras, Lane, MAX_LANES};
     use crate::predict::lanes_avx2::tests::starts_on_maps;
     use crate::predict::seeds::agent_key;
-    use crate::predict::{PRUNE_SCHEDULE, Params};
+    use crate::predict::{Checkpoint, PRUNE_SCHEDULE, Params};
 
     /// What a rollout gives: the positions' bits, the lengths, the scores' bits.
     type Rolled = (Vec<[u32; 2]>, Vec<u32>, Vec<u32>);
 
     /// A case: candidates, samples kept, the pruning schedule (empty: whole rollouts).
-    type Case<'a> = (usize, usize, &'a [(f64, f64)]);
+    type Case<'a> = (usize, usize, &'a [Checkpoint]);
 
     /// `m` candidates of `state` rolled whole (`schedule` empty) or pruned to `k`,
     /// through the table (the intrinsics) or not (the generic loop's AVX2 copy).
@@ -470,7 +470,7 @@ mod tests {
                         simd: Simd::Avx2Fma,
                     };
                     let seed = (i * 31 + k) as u64;
-                    let cases: [Case<'_>; 2] = [(k, k, &[]), (4 * k, k, PRUNE_SCHEDULE)];
+                    let cases: [Case<'_>; 2] = [(k, k, &[]), (2 * k, k, PRUNE_SCHEDULE)];
                     for (case, scored) in cases.into_iter().zip([c % 2 == 0, c % 3 != 1]) {
                         let fast = roll(map, state, &params, &extras, case, scored, true, seed);
                         let generic = roll(map, state, &params, &extras, case, scored, false, seed);

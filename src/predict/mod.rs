@@ -53,7 +53,9 @@ use crate::map::CliffMap;
 use crate::motion::State;
 
 pub use batch::{BatchMut, Point, TrajectoryBatch};
-pub use options::{CONSENSUS_STEP_PENALTY, NO_LOCATION_LOG_DENSITY, Options, PRUNE_SCHEDULE, Rank};
+pub use options::{
+    CONSENSUS_STEP_PENALTY, Checkpoint, NO_LOCATION_LOG_DENSITY, Options, PRUNE_SCHEDULE, Rank,
+};
 pub use rollout::{Rollout, Tables};
 pub use with_options::{predict_batch, predict_batch_into, predict_into_with, predict_with};
 

@@ -38,9 +38,11 @@
 //!   stretches and cut at the checkpoints of [`PRUNE_SCHEDULE`] to the best of them:
 //!   the furthest projected reach first (the steps reached, plus the steps a walker
 //!   following the map's likeliest flow from where the candidate is would stay on the
-//!   map; at the checkpoints before half the horizon), then the partial score. So most
-//!   of them stop early: with 4 candidates, cut to `2 k` at a fifth of the horizon and
-//!   to `k` at seven tenths, 2.1 times the samples' steps of `k` samples instead of 4.
+//!   map; at the checkpoints before half the horizon), then the partial score; each
+//!   kept one goes on as the checkpoint's copies (itself and copies drawing from
+//!   generators of their own). So most of them stop early: with 2 candidates, the best
+//!   half of `k` going on twice at a fifth, at half and at eight tenths of the horizon,
+//!   1.2 times the samples' steps of `k` samples instead of 2.
 //! * **Speed prior** ([`Options::speed_prior`]): the start speed regresses to the
 //!   typical speed of the map's walkers with the map's
 //!   [`SpeedPrior`](crate::motion::SpeedPrior) (`cliff map build` learns one; a map
@@ -100,9 +102,9 @@ pub struct Options {
     pub candidates: u32,
     /// Prune the candidates ([`Options::candidates`] > 1) along the way: they are
     /// rolled in stretches, and at each checkpoint of [`PRUNE_SCHEDULE`] only the best
-    /// go on (those that reach furthest, then the highest partial score), down to no
-    /// fewer than `k`; the `k` kept are the best of those left at the horizon. Most
-    /// candidates then stop early.
+    /// go on (those that reach furthest, then the highest partial score), each as the
+    /// checkpoint's copies ([`Checkpoint`]), no fewer than `k` in all; the `k` kept are
+    /// the best of those left at the horizon. Most candidates then stop early.
     pub prune: bool,
     /// Start from the speed the map's speed prior gives for the observed one.
     pub speed_prior: bool,
@@ -171,9 +173,12 @@ impl Options {
     ///
     /// Measured per call on the benchmark people, against the paper's method on the
     /// same instructions (`cargo bench --bench options_cost`, BENCHMARKS.md): scores
-    /// cost 1.2-1.3 times the paper, follow 1.3-1.7 times; `improved` (4 candidates
-    /// pruned, follow, scores, trust, blend, consensus) 4.3-4.8 times on the baseline
-    /// path and up to 5.4 on AVX2 + FMA, 6.9-7.8 without pruning. The speed kernel and
+    /// cost 1.2-1.3 times the paper, follow 1.3-1.7 times; `improved` (2 candidates
+    /// pruned and resampled, follow, scores, trust, blend, consensus) 2.7-3.0 times on
+    /// the baseline path and 3.2-3.6 on AVX2 + FMA; with 4 candidates cut to 2 and to 1
+    /// per sample (its earlier schedule)
+    /// 4.3-4.8 times on the baseline path and up to 5.4 on AVX2, 6.9-7.8 without
+    /// pruning. The speed kernel and
     /// coasting cost 1.2 times the paper on the baseline path (the count here) but 1.5-1.9
     /// on AVX2, where they run the generic loop beside the paper's eight-lane one
     /// (2.2-2.5 with both and scores).
@@ -184,9 +189,9 @@ impl Options {
     /// assert_eq!(Options { scores: true, speed_beta: 1.0, ..Options::default() }.cost_factor(), 1);
     /// assert_eq!(Options { follow: 4.0, candidates: 5, ..Options::default() }.cost_factor(), 10);
     /// assert_eq!(Options { candidates: 5, ..Options::default() }.cost_factor(), 7);
-    /// let pruned = Options { follow: 4.0, candidates: 4, prune: true, ..Options::default() };
-    /// // 4 to a fifth of the horizon, 2 to seven tenths, then 1: 2.1 x 2 + 1
-    /// assert_eq!(pruned.cost_factor(), 6);
+    /// let pruned = Options { follow: 4.0, candidates: 2, prune: true, ..Options::default() };
+    /// // 2 to a fifth of the horizon, then 1 (half of them, each twice): 1.2 x 2 + 1
+    /// assert_eq!(pruned.cost_factor(), 4);
     /// ```
     pub fn cost_factor(&self) -> usize {
         let follow = self.follow > 0.0;
@@ -258,17 +263,64 @@ impl Options {
     }
 }
 
-/// The checkpoints of a pruned rollout, `(fraction, keep)`: at `fraction` of the
-/// horizon's steps (rounded, at least one step in, before the last) the candidates left
-/// are cut to `keep` times `k` (rounded up, at least `k`), ranked by the steps they
-/// reached, then their partial scores; before half the horizon the steps reached count
-/// those the map's likeliest flow would keep them on the map from there (a flow walk).
-/// Chosen on held-out data (BENCHMARKS.md, "Flow-ranked pruning"): to two per kept
-/// sample at a fifth of the horizon, to one at seven tenths. Without the flow walk such
-/// an early cut loses accuracy at the horizons after it (a sample's partial likelihood
-/// says little about whether it will reach the horizon, which the final choice weighs
-/// first).
-pub const PRUNE_SCHEDULE: &[(f64, f64)] = &[(0.2, 2.0), (0.7, 1.0)];
+/// A checkpoint of a pruned rollout ([`PRUNE_SCHEDULE`]): at `at` of the horizon's
+/// steps (rounded, at least one step in, before the last) the candidates left are ranked
+/// by the steps they reached, then their partial scores (before half the horizon the
+/// steps reached count those the map's likeliest flow would keep them on the map from
+/// there: a flow walk), the best `keep` times `k` of them (rounded up; at least `k`
+/// divided by `copies`, rounded up) are kept, and each kept one goes on as `copies`
+/// candidates: itself and `copies - 1` copies of it (its path so far and its partial
+/// score) that draw from generators of their own, as a particle filter resamples.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Checkpoint {
+    /// Where, as a fraction of the horizon's steps.
+    pub at: f64,
+    /// How many candidates are kept, per kept sample.
+    pub keep: f64,
+    /// How many candidates each kept one goes on as (1: itself alone).
+    pub copies: u32,
+}
+
+/// The checkpoints of a pruned rollout ([`Checkpoint`]): the best half of `k` kept at a
+/// fifth of the horizon (ranked with the flow walk), at half and at eight tenths, each
+/// going on twice, from `2 k` candidates (the `improved` preset). So the candidates
+/// roll 1.2 times the kept samples' steps, and the samples choose four times among two
+/// (BENCHMARKS.md, "Resampling the best candidates"): more accurate on average and
+/// further reaching than four candidates per sample cut to two at a fifth and to one at
+/// seven tenths (2.1 times the steps), less diverse (pairs of samples share their path
+/// up to the last checkpoint).
+pub const PRUNE_SCHEDULE: &[Checkpoint] = &[
+    Checkpoint {
+        at: 0.2,
+        keep: 0.5,
+        copies: 2,
+    },
+    Checkpoint {
+        at: 0.5,
+        keep: 0.5,
+        copies: 2,
+    },
+    Checkpoint {
+        at: 0.8,
+        keep: 0.5,
+        copies: 2,
+    },
+];
+
+impl Checkpoint {
+    /// The candidates kept at this checkpoint for `k` samples (see [`Checkpoint`]).
+    pub(super) fn kept(&self, k: usize) -> usize {
+        let copies = self.copies.max(1) as usize;
+        ((self.keep * k as f64).ceil() as usize).max(k.div_ceil(copies))
+    }
+
+    /// How many candidates go on after it, per kept sample, from `rolling` (the
+    /// checkpoints' rounding aside).
+    pub(super) fn going_on(&self, rolling: f64) -> f64 {
+        let copies = self.copies.max(1) as f64;
+        rolling.min(self.keep.max(1.0 / copies) * copies)
+    }
+}
 
 /// The samples' steps a pruned rollout of `candidates` per kept sample rolls, per kept
 /// sample's step, at most (the share of the horizon each stretch covers times the
@@ -277,9 +329,9 @@ pub const PRUNE_SCHEDULE: &[(f64, f64)] = &[(0.2, 2.0), (0.7, 1.0)];
 pub(super) fn pruned_share(candidates: usize) -> f64 {
     let mut share = 0.0;
     let (mut from, mut rolling) = (0.0, candidates as f64);
-    for &(at, keep) in PRUNE_SCHEDULE {
-        share += (at - from) * rolling;
-        (from, rolling) = (at, rolling.min(keep.max(1.0)));
+    for c in PRUNE_SCHEDULE {
+        share += (c.at - from) * rolling;
+        (from, rolling) = (c.at, c.going_on(rolling));
     }
     share + (1.0 - from) * rolling
 }

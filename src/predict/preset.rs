@@ -36,12 +36,15 @@ pub struct Preset {
 /// * **follow 4** ([`Options::follow`]): the component drawn at each step is weighed by
 ///   how well it agrees with the walker's heading, so samples keep to the flows going
 ///   their way;
-/// * **4 candidates** ([`Options::candidates`]), **pruned** ([`Options::prune`]): the
-///   `k` samples kept are the best of `4 k` drawn, those that reach furthest and then
-///   the most likely under the map; the candidates are cut to `2 k` at a fifth of the
-///   horizon, ranked by how far they would reach following the map's likeliest flow,
-///   and to `k` at seven tenths ([`PRUNE_SCHEDULE`](super::PRUNE_SCHEDULE)), so they
-///   roll 2.1 times the paper's samples' steps instead of 4 times;
+/// * **2 candidates** ([`Options::candidates`]), **pruned and resampled**
+///   ([`Options::prune`], [`PRUNE_SCHEDULE`](super::PRUNE_SCHEDULE)): `2 k` samples are
+///   drawn; at a fifth of the horizon the best `k / 2` of them go on, those that would
+///   reach furthest following the map's likeliest flow and then the most likely under
+///   the map, each twice (itself and a copy that draws from a generator of its own);
+///   at half and at eight tenths of the horizon again the best half by the steps
+///   reached and then the likelihood, each twice. So the samples choose among
+///   candidates three times, and the candidates roll 1.2 times the paper's samples'
+///   steps; pairs of samples share their path up to the last checkpoint;
 /// * **the speed prior** ([`Options::speed_prior`]): the speed regresses to the
 ///   typical speed of the map's walkers ([`SpeedPrior`](crate::motion::SpeedPrior),
 ///   which `cliff map build` learns from its tracks; a map without one keeps the
@@ -58,9 +61,8 @@ pub struct Preset {
 ///
 /// On held-out people (maps from training data only, 10 seeds, paired over the same
 /// people or windows; docs/accuracy.md) its mean ADE and FDE are no higher than constant
-/// velocity's at any horizon on THÖR3, THÖR-MAGNI and ATC, and on THÖR1 but at its last
-/// horizons (FDE 1 % above constant velocity's at 11-12 s, a handful of people), and on
-/// ATC's dev hours 14 % below the paper's at 5 s, 17 % at 20 s and 12 % at 50 s. Its content is set by
+/// velocity's at any horizon on THÖR1, THÖR3, THÖR-MAGNI and ATC, and on ATC's dev hours
+/// 16 % below the paper's at 5 s, 18 % at 20 s and 15 % at 50 s. Its content is set by
 /// the project's held-out experiments and may change between versions; `cliff` (the
 /// paper's method) stays as it is.
 pub const IMPROVED: Preset = Preset {
@@ -70,7 +72,7 @@ pub const IMPROVED: Preset = Preset {
         coast: 0.0,
         scores: true,
         follow: 4.0,
-        candidates: 4,
+        candidates: 2,
         prune: true,
         speed_prior: true,
         trust: 0.5,
@@ -80,7 +82,7 @@ pub const IMPROVED: Preset = Preset {
 };
 
 /// How many times the paper's work a call of `params` with `options` does, at most
-/// ([`Options::cost_factor`] of the preset's options for [`Method::Improved`]: 6): what
+/// ([`Options::cost_factor`] of the preset's options for [`Method::Improved`]: 4): what
 /// a daemon's cost limits count.
 pub fn cost_factor(params: &Params, options: &Options) -> usize {
     resolve(params, options).1.cost_factor()

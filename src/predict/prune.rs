@@ -9,26 +9,31 @@
 
 use glam::DVec2;
 
+use super::Checkpoint;
 #[cfg(doc)]
 use super::PRUNE_SCHEDULE;
 use super::candidates::{Candidates, best};
 use super::flow_memo::{FlowMemo, flow_key};
 use super::lanes::{Lane, Lanes, finish_sample};
 use crate::math::fastmath::{acos_f32_with, exp_neg_f32};
+use crate::math::lane_rng::lane_seed;
 use crate::math::simd::Separate;
 
 impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
     /// Roll the `scratch.lens.len()` candidates of one agent (their positions in
     /// `scratch.tracks`, `steps` per candidate), pruned at the checkpoints of `schedule`
-    /// (as [`PRUNE_SCHEDULE`]) down to no fewer than `k`; the candidates left (their number is
-    /// returned) are the first of the scratch buffers, in the order they were drawn,
-    /// ended and scored ([`finish_sample`]). Unless `ranked` (the caller keeps the
-    /// likelihood scores), a last stretch of `k` candidates is rolled without scores:
-    /// their scores are then those at the last checkpoint.
+    /// (as [`PRUNE_SCHEDULE`]): at each the best are kept and each goes on as its
+    /// checkpoint's copies (the copies after the kept ones, copy `d` drawing from
+    /// [`copy_seed`]`(key, checkpoint, d)`), never more than the buffers hold; no fewer
+    /// than `k` are left at the end. The candidates left (their number is returned) are
+    /// the first of the scratch buffers, ended and scored ([`finish_sample`]). Unless
+    /// `ranked` (the caller keeps the likelihood scores), a last stretch of `k`
+    /// candidates is rolled without scores: their scores are then those at the last
+    /// checkpoint.
     pub(super) fn roll_pruned<const MOTION: u8>(
         &self,
         key: u64,
-        schedule: &[(f64, f64)],
+        schedule: &[Checkpoint],
         k: usize,
         steps: usize,
         ranked: bool,
@@ -45,19 +50,20 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
             flow,
             ..
         } = scratch;
-        let mut m = lens.len();
+        let room = lens.len();
+        let mut m = room;
         let mut from = 0;
-        let mut cuts = schedule.iter().map(|&(at, keep)| {
-            let step = ((at * steps as f64).round() as usize).clamp(1, steps.max(2) - 1);
-            let walk = at < FLOW_WALK_BEFORE;
-            (step, ((keep * k as f64).ceil() as usize).max(k), walk)
+        let mut cuts = schedule.iter().enumerate().map(|(c, cut)| {
+            let step = ((cut.at * steps as f64).round() as usize).clamp(1, steps.max(2) - 1);
+            let walk = cut.at < FLOW_WALK_BEFORE;
+            (step, cut.kept(k), walk, cut.copies.max(1) as usize, c)
         });
         loop {
-            let (to, keep, walk) = loop {
+            let (to, keep, walk, copies, cut) = loop {
                 match cuts.next() {
                     Some((to, ..)) if to <= from || to >= steps => continue,
                     Some(cut) => break cut,
-                    None => break (steps, m, false),
+                    None => break (steps, m, false, 1, 0),
                 }
             };
             // the last stretch of exactly `k` needs no scores if nothing ranks by them
@@ -104,7 +110,16 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
                         tracks.copy_within(i * steps..i * steps + to, s * steps);
                     }
                 }
-                m = keep;
+                // each kept one goes on as `copies`: the copies after the kept ones,
+                // with their paths so far and generators of their own
+                m = (keep * copies).min(room).max(keep);
+                for d in keep..m {
+                    let s = d % keep;
+                    lanes[d] = lanes[s];
+                    lanes[d].reseed(copy_seed(key, cut, d));
+                    lens[d] = lens[s];
+                    tracks.copy_within(s * steps..s * steps + to, d * steps);
+                }
             }
             from = to;
         }
@@ -190,6 +205,15 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
     }
 }
 
+/// The generator of copy `d` made at checkpoint `cut` of the agent of key `key`
+/// ([`Lanes::roll_pruned`]): not one a sample starts from.
+pub(super) fn copy_seed(key: u64, cut: usize, d: usize) -> [u32; 4] {
+    // (the agent's samples start from lane_seed(key, s); a checkpoint's copies from
+    // another key, one per checkpoint)
+    let salt = (cut as u64 + 1).wrapping_mul(0xd1b5_4a32_d192_ed03);
+    lane_seed(key ^ salt, d as u64)
+}
+
 /// Checkpoints before this fraction of the horizon rank the candidates by their
 /// projected reach with the flow walk ([`Lanes::look_ahead`]); later ones by the steps
 /// reached alone (a candidate that got that far has shown whether it stays on the map,
@@ -212,11 +236,14 @@ mod tests {
 
     #[test]
     fn the_pruned_share_counts_each_stretch_at_its_candidates() {
+        // after a checkpoint, its kept candidates times their copies go on (at least
+        // one per kept sample)
         let share = |c: f64| {
             let (mut s, mut from, mut rolling) = (0.0, 0.0, c);
-            for &(at, keep) in PRUNE_SCHEDULE {
-                s += (at - from) * rolling;
-                (from, rolling) = (at, rolling.min(keep));
+            for cut in PRUNE_SCHEDULE {
+                s += (cut.at - from) * rolling;
+                let copies = cut.copies as f64;
+                (from, rolling) = (cut.at, rolling.min(cut.keep.max(1.0 / copies) * copies));
             }
             s + (1.0 - from) * rolling
         };
@@ -224,6 +251,8 @@ mod tests {
             assert!((pruned_share(c) - share(c as f64)).abs() < 1e-12, "{c}");
             assert!(pruned_share(c) <= c as f64 && pruned_share(c) >= 1.0);
         }
+        // the preset's 2 candidates: two per kept sample to a fifth, then one
+        assert!((pruned_share(2) - (2.0 * 0.2 + 0.8)).abs() < 1e-12);
         assert_eq!(pruned_share(1), 1.0);
     }
 
@@ -307,7 +336,18 @@ mod tests {
             let key = agent_key(3, 0);
             let left = lanes.roll_pruned::<ANY>(
                 key,
-                &[(0.2, 50.0), (0.5, 50.0)],
+                &[
+                    Checkpoint {
+                        at: 0.2,
+                        keep: 50.0,
+                        copies: 1,
+                    },
+                    Checkpoint {
+                        at: 0.5,
+                        keep: 50.0,
+                        copies: 1,
+                    },
+                ],
                 1,
                 steps,
                 true,
@@ -331,7 +371,12 @@ mod tests {
         let mut pruned = scratch(m, steps);
         let key = agent_key(8, 0);
         let at = cut as f64 / steps as f64;
-        let left = lanes.roll_pruned::<ANY>(key, &[(at, 1.0)], k, steps, true, &mut pruned);
+        let once = Checkpoint {
+            at,
+            keep: 1.0,
+            copies: 1,
+        };
+        let left = lanes.roll_pruned::<ANY>(key, &[once], k, steps, true, &mut pruned);
         assert_eq!(left, k);
         // the same by hand: all candidates to the cut, the best k by (reach, score)
         let mut by_hand = scratch(m, steps);
@@ -384,6 +429,97 @@ mod tests {
         let reached = c.lens.iter().filter(|&&l| l as usize == cut).count();
         assert!(reached > k, "{reached}");
         assert!(pruned.lens[..k].iter().all(|&l| l as usize >= cut));
+    }
+
+    #[test]
+    fn a_checkpoint_with_copies_lets_each_kept_candidate_go_on_with_a_generator_of_its_own() {
+        let (map, state, params, extras) = setup();
+        let near = |p| map.best_near(p, params.radius);
+        let lanes = lanes_of!(map, near, state, params, extras);
+        let steps = params.steps();
+        let (m, k, cut) = (16, 8, 9);
+        let twice = Checkpoint {
+            at: cut as f64 / steps as f64,
+            keep: 0.5,
+            copies: 2,
+        };
+        let key = agent_key(8, 0);
+        let mut pruned = scratch(m, steps);
+        let left = lanes.roll_pruned::<ANY>(key, &[twice], k, steps, true, &mut pruned);
+        assert_eq!(left, k);
+        // the same by hand: all to the checkpoint, the best half of k by (projected
+        // reach, score), in the order drawn, then each kept one and its copy (after the
+        // kept ones, drawing from copy_seed) to the horizon
+        let mut by_hand = scratch(m, steps);
+        let c = &mut by_hand;
+        lanes.roll_stretch::<ANY, true>((key, 0), &mut c.lanes, 0, cut, &mut c.tracks, &mut c.lens);
+        let mut memo = FlowMemo::default();
+        memo.start();
+        let reach: Vec<u32> = (0..m)
+            .map(|i| match c.lens[i] as usize {
+                l if l == cut => l as u32 + lanes.look_ahead(&c.lanes[i], steps - cut, &mut memo),
+                l => l as u32,
+            })
+            .collect();
+        let mut best: Vec<usize> = (0..m).collect();
+        best.sort_by(|&x, &y| {
+            (reach[y], c.lanes[y].score)
+                .partial_cmp(&(reach[x], c.lanes[x].score))
+                .unwrap()
+                .then(x.cmp(&y))
+        });
+        best.truncate(k / 2);
+        best.sort();
+        let mut doubled = scratch(k, steps);
+        for d in 0..k {
+            let j = best[d % (k / 2)];
+            doubled.lanes[d] = c.lanes[j];
+            if d >= k / 2 {
+                doubled.lanes[d].reseed(copy_seed(key, 0, d));
+            }
+            doubled.lens[d] = c.lens[j];
+            doubled.tracks[d * steps..d * steps + cut]
+                .copy_from_slice(&c.tracks[j * steps..j * steps + cut]);
+        }
+        let dc = &mut doubled;
+        lanes.roll_stretch::<ANY, true>(
+            (key, 0),
+            &mut dc.lanes,
+            cut,
+            steps,
+            &mut dc.tracks,
+            &mut dc.lens,
+        );
+        for d in 0..k {
+            let t = &mut doubled.tracks[d * steps..(d + 1) * steps];
+            doubled.scores[d] = finish_sample(t, doubled.lens[d], doubled.lanes[d].score);
+        }
+        assert_eq!(bits(&pruned.tracks[..k * steps]), bits(&doubled.tracks));
+        assert_eq!(&pruned.lens[..k], &doubled.lens[..]);
+        assert_eq!(&pruned.scores[..k], &doubled.scores[..]);
+        // a copy shares its original's path to the checkpoint and goes its own way after
+        let h = k / 2;
+        let apart = (0..h)
+            .filter(|&i| pruned.lens[i] as usize > cut && pruned.lens[h + i] as usize > cut)
+            .inspect(|&i| {
+                let (a, b) = (
+                    &pruned.tracks[i * steps..],
+                    &pruned.tracks[(h + i) * steps..],
+                );
+                assert_eq!(bits(&a[..cut]), bits(&b[..cut]), "copy {i}");
+            })
+            .filter(|&i| {
+                let (a, b) = (
+                    &pruned.tracks[i * steps..],
+                    &pruned.tracks[(h + i) * steps..],
+                );
+                a[cut..steps] != b[cut..steps]
+            })
+            .count();
+        assert!(
+            apart > 0,
+            "no copy went past the checkpoint on a path of its own"
+        );
     }
 
     /// A lane of a walker at `(x, y)` heading `heading` on the demo map, one step on

@@ -84,9 +84,10 @@ pub struct PredictionArgs {
     #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=16))]
     pub candidates: u32,
     /// Prune the candidates (beyond the paper): roll them in stretches and let only the
-    /// best go on at each checkpoint (the furthest projected reach: the steps reached
-    /// plus those the map's likeliest flow would keep it on the map; then the highest
-    /// partial score; `cliff::predict::PRUNE_SCHEDULE`), so most of them cost a few steps.
+    /// best go on at each checkpoint, each twice (itself and a copy with a generator of
+    /// its own): the furthest projected reach (the steps reached plus those the map's
+    /// likeliest flow would keep it on the map), then the highest partial score
+    /// (`cliff::predict::PRUNE_SCHEDULE`), so most of them cost a few steps.
     #[arg(long)]
     pub prune: bool,
     /// Speed prior (beyond the paper): start from the speed the map's speed prior
