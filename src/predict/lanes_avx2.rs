@@ -251,25 +251,11 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
             turn_v(t, &mut ux, &mut uy, neg_beta, None);
             if SCORES {
                 // the step's log-density, lane by lane for the live lanes
-                let angle = x8::atan2(uy, ux);
-                let mut heading = [0.0f32; PACK];
-                let mut at = [0i32; PACK];
-                // SAFETY: the arrays hold 8 V lanes.
-                unsafe {
-                    for v in 0..V {
-                        _mm256_storeu_ps(heading.as_mut_ptr().add(8 * v), angle[v]);
-                        _mm256_storeu_si256(at.as_mut_ptr().add(8 * v) as *mut __m256i, loc[v]);
-                    }
-                }
                 let mut bits = 0u32;
                 for (v, a) in alive.iter().enumerate() {
                     bits |= (_mm256_movemask_ps(_mm256_castsi256_ps(*a)) as u32) << (8 * v);
                 }
-                while bits != 0 {
-                    let l = bits.trailing_zeros() as usize;
-                    bits &= bits - 1;
-                    step_score[l] = map.step_log_density_at(at[l] as usize, heading[l], speed);
-                }
+                step_scores8(map, (&ux, &uy), &loc, bits, |_| speed, &mut step_score);
             }
             // Move, and find the sub-cells of the new positions (every register's first,
             // so that their cache misses overlap).
@@ -303,18 +289,8 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
             for v in 0..V {
                 // SAFETY: AVX2 and FMA; the probe of these points.
                 let (found, code) = unsafe { table.resolve8(&probes[v], px[v], py[v]) };
-                let now = _mm256_and_si256(alive[v], lane_mask(found));
-                loc[v] = _mm256_blendv_epi8(loc[v], code, now);
-                len[v] = _mm256_blendv_epi8(len[v], step_len, now);
-                if SCORES {
-                    // SAFETY: the array holds 8 V lanes.
-                    let add = unsafe { _mm256_loadu_ps(step_score.as_ptr().add(8 * v)) };
-                    score[v] = _mm256_blendv_ps(
-                        score[v],
-                        _mm256_add_ps(score[v], add),
-                        _mm256_castsi256_ps(now),
-                    );
-                }
+                let lane = (&mut loc[v], &mut len[v], &mut score[v]);
+                let now = go_on8::<SCORES>(alive[v], (found, code), step_len, lane, &step_score, v);
                 alive[v] = now;
                 alive_now += (_mm256_movemask_ps(_mm256_castsi256_ps(now)) as u32).count_ones();
             }
@@ -366,6 +342,63 @@ pub(super) fn advance8(
         x[h] = _mm256_fmadd_pd(_mm256_cvtps_pd(hx[h]), d[h], x[h]);
         y[h] = _mm256_fmadd_pd(_mm256_cvtps_pd(hy[h]), d[h], y[h]);
     }
+}
+
+/// The step's log-densities (`CliffMap::step_log_density_at`) of the lanes of `live`
+/// (bit `l` for lane `l`) into `out`: each lane's heading angle from `(ux, uy)` eight to a
+/// register (`x8::atan2`, the generic loop's `atan2_f32_with::<Fused>`), its location
+/// from `loc`, its speed `speed(l)`.
+#[target_feature(enable = "avx2,fma")]
+#[inline]
+pub(super) fn step_scores8<const V: usize>(
+    map: &crate::map::CliffMap,
+    (ux, uy): (&[__m256; V], &[__m256; V]),
+    loc: &[__m256i; V],
+    live: u32,
+    speed: impl Fn(usize) -> f32,
+    out: &mut [f32; PACK],
+) {
+    let angle = x8::atan2(*uy, *ux);
+    let mut heading = [0.0f32; PACK];
+    let mut at = [0i32; PACK];
+    // SAFETY: the arrays hold PACK >= 8 V lanes.
+    unsafe {
+        for v in 0..V {
+            _mm256_storeu_ps(heading.as_mut_ptr().add(8 * v), angle[v]);
+            _mm256_storeu_si256(at.as_mut_ptr().add(8 * v) as *mut __m256i, loc[v]);
+        }
+    }
+    let mut bits = live;
+    while bits != 0 {
+        let l = bits.trailing_zeros() as usize;
+        bits &= bits - 1;
+        out[l] = map.step_log_density_at(at[l] as usize, heading[l], speed(l));
+    }
+}
+
+/// The end of a step for register `v` of the lanes `alive`: the lanes whose new position
+/// the lookup placed (`(found, code)`: `resolve8`'s answer) go on, with that location
+/// and the length `step_len`, and with `SCORES` their step's log-density (`step_score`)
+/// added to their score; the others keep theirs. The lanes that go on.
+#[target_feature(enable = "avx2,fma")]
+#[inline]
+pub(super) fn go_on8<const SCORES: bool>(
+    alive: __m256i,
+    (found, code): (u32, __m256i),
+    step_len: __m256i,
+    (loc, len, score): (&mut __m256i, &mut __m256i, &mut __m256),
+    step_score: &[f32; PACK],
+    v: usize,
+) -> __m256i {
+    let now = _mm256_and_si256(alive, lane_mask(found));
+    *loc = _mm256_blendv_epi8(*loc, code, now);
+    *len = _mm256_blendv_epi8(*len, step_len, now);
+    if SCORES {
+        // SAFETY: the array holds PACK >= 8 (v + 1) lanes.
+        let add = unsafe { _mm256_loadu_ps(step_score.as_ptr().add(8 * v)) };
+        *score = _mm256_blendv_ps(*score, _mm256_add_ps(*score, add), _mm256_castsi256_ps(now));
+    }
+    now
 }
 
 /// The generic loop's heading update (`turn::<8, Fused, GAIN>`) of `V` registers of

@@ -19,10 +19,10 @@ use std::arch::x86_64::*;
 use glam::DVec2;
 
 use super::lanes::{ANY, Lane, LaneState, Lanes, PACK};
-use super::lanes_avx2::{advance8, turn_v};
+use super::lanes_avx2::{advance8, go_on8, step_scores8, turn_v};
 use super::{HeadingRule, Point};
 use crate::map::{NeighbourTable, lane_mask};
-use crate::math::fastmath::{self, x8};
+use crate::math::fastmath;
 use crate::math::lane_rng::{next8, normal8, unit8};
 
 impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
@@ -179,8 +179,6 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
                 std::ptr::null_mut()
             }
         });
-        let mut heading = [0.0f32; PACK];
-        let mut at = [0i32; PACK];
         let mut step_score = [0.0f32; PACK];
         let mut xs = [0.0f32; PACK];
         let mut ys = [0.0f32; PACK];
@@ -213,16 +211,8 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
             );
             // The step's log-density, lane by lane for the live lanes (all drew).
             if SCORES {
-                let angle = x8::atan2(uy, ux);
-                // SAFETY: the arrays hold 8 V lanes.
-                unsafe {
-                    for v in 0..V {
-                        _mm256_storeu_ps(heading.as_mut_ptr().add(8 * v), angle[v]);
-                        _mm256_storeu_si256(at.as_mut_ptr().add(8 * v) as *mut __m256i, loc[v]);
-                    }
-                }
                 let mut speeds = [0.0f64; PACK];
-                // SAFETY: as above.
+                // SAFETY: the array holds 8 V lanes.
                 unsafe {
                     for (v, halves) in speed.iter().enumerate() {
                         for (h, half) in halves.iter().enumerate() {
@@ -230,13 +220,8 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
                         }
                     }
                 }
-                let mut bits = alive_bits;
-                while bits != 0 {
-                    let l = bits.trailing_zeros() as usize;
-                    bits &= bits - 1;
-                    step_score[l] =
-                        map.step_log_density_at(at[l] as usize, heading[l], speeds[l] as f32);
-                }
+                let speed_of = |l: usize| speeds[l] as f32;
+                step_scores8(map, (&ux, &uy), &loc, alive_bits, speed_of, &mut step_score);
             }
             // Move, and probe the sub-cells of the new positions (every register's first,
             // so that their cache misses overlap).
@@ -281,18 +266,8 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
             for v in 0..V {
                 // SAFETY: AVX2 and FMA; the probe of these points.
                 let (found, code) = unsafe { table.resolve8(&probes[v], px[v], py[v]) };
-                let now = _mm256_and_si256(alive[v], lane_mask(found));
-                loc[v] = _mm256_blendv_epi8(loc[v], code, now);
-                len[v] = _mm256_blendv_epi8(len[v], step_len, now);
-                if SCORES {
-                    // SAFETY: the array holds 8 V lanes.
-                    let add = unsafe { _mm256_loadu_ps(step_score.as_ptr().add(8 * v)) };
-                    score[v] = _mm256_blendv_ps(
-                        score[v],
-                        _mm256_add_ps(score[v], add),
-                        _mm256_castsi256_ps(now),
-                    );
-                }
+                let lane = (&mut loc[v], &mut len[v], &mut score[v]);
+                let now = go_on8::<SCORES>(alive[v], (found, code), step_len, lane, &step_score, v);
                 alive[v] = now;
                 now_bits |= (_mm256_movemask_ps(_mm256_castsi256_ps(now)) as u32) << (8 * v);
             }

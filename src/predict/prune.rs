@@ -361,6 +361,78 @@ mod tests {
         }
     }
 
+    /// By hand: `m` candidates of the agent of key `key` rolled to step `cut`, and the
+    /// best `n` of them by (projected reach, partial score), in the order drawn.
+    fn best_at_cut<F: Fn(DVec2) -> Option<usize>>(
+        lanes: &Lanes<'_, F>,
+        key: u64,
+        m: usize,
+        cut: usize,
+        n: usize,
+    ) -> (Candidates, Vec<usize>) {
+        let steps = lanes.params.steps();
+        let mut c = scratch(m, steps);
+        lanes.roll_stretch::<ANY, true>((key, 0), &mut c.lanes, 0, cut, &mut c.tracks, &mut c.lens);
+        // the projected reach: the flow walk from those that reached the cut
+        let mut memo = FlowMemo::default();
+        memo.start();
+        let reach: Vec<u32> = (0..m)
+            .map(|i| match c.lens[i] as usize {
+                l if l == cut => l as u32 + lanes.look_ahead(&c.lanes[i], steps - cut, &mut memo),
+                l => l as u32,
+            })
+            .collect();
+        let mut best: Vec<usize> = (0..m).collect();
+        best.sort_by(|&x, &y| {
+            (reach[y], c.lanes[y].score)
+                .partial_cmp(&(reach[x], c.lanes[x].score))
+                .unwrap()
+                .then(x.cmp(&y))
+        });
+        best.truncate(n);
+        best.sort();
+        (c, best)
+    }
+
+    /// By hand: slot `d` takes candidate `picks[d]` of `c` at step `cut` (its generator
+    /// replaced by `reseed(d)` where that gives one), and the slots go on to the horizon
+    /// and are ended and scored.
+    fn on_from_cut<F: Fn(DVec2) -> Option<usize>>(
+        lanes: &Lanes<'_, F>,
+        key: u64,
+        c: &Candidates,
+        picks: &[usize],
+        reseed: impl Fn(usize) -> Option<[u32; 4]>,
+        cut: usize,
+    ) -> Candidates {
+        let steps = lanes.params.steps();
+        let n = picks.len();
+        let mut out = scratch(n, steps);
+        for (d, &j) in picks.iter().enumerate() {
+            out.lanes[d] = c.lanes[j];
+            if let Some(rng) = reseed(d) {
+                out.lanes[d].reseed(rng);
+            }
+            out.lens[d] = c.lens[j];
+            out.tracks[d * steps..d * steps + cut]
+                .copy_from_slice(&c.tracks[j * steps..j * steps + cut]);
+        }
+        let o = &mut out;
+        lanes.roll_stretch::<ANY, true>(
+            (key, 0),
+            &mut o.lanes,
+            cut,
+            steps,
+            &mut o.tracks,
+            &mut o.lens,
+        );
+        for d in 0..n {
+            let t = &mut out.tracks[d * steps..(d + 1) * steps];
+            out.scores[d] = finish_sample(t, out.lens[d], out.lanes[d].score);
+        }
+        out
+    }
+
     #[test]
     fn a_cut_keeps_the_furthest_reaching_then_best_scored_and_they_go_on() {
         let (map, state, params, extras) = setup();
@@ -379,49 +451,8 @@ mod tests {
         let left = lanes.roll_pruned::<ANY>(key, &[once], k, steps, true, &mut pruned);
         assert_eq!(left, k);
         // the same by hand: all candidates to the cut, the best k by (reach, score)
-        let mut by_hand = scratch(m, steps);
-        let key = agent_key(8, 0);
-        let c = &mut by_hand;
-        let c_lanes = &mut c.lanes;
-        lanes.roll_stretch::<ANY, true>((key, 0), c_lanes, 0, cut, &mut c.tracks, &mut c.lens);
-        // the projected reach: the flow walk from those that reached the cut
-        let mut memo = FlowMemo::default();
-        memo.start();
-        let reach: Vec<u32> = (0..m)
-            .map(|i| match c.lens[i] as usize {
-                l if l == cut => l as u32 + lanes.look_ahead(&c.lanes[i], steps - cut, &mut memo),
-                l => l as u32,
-            })
-            .collect();
-        let mut best: Vec<usize> = (0..m).collect();
-        best.sort_by(|&x, &y| {
-            (reach[y], c.lanes[y].score)
-                .partial_cmp(&(reach[x], c.lanes[x].score))
-                .unwrap()
-                .then(x.cmp(&y))
-        });
-        best.truncate(k);
-        best.sort();
-        let mut kept = scratch(k, steps);
-        for (s, &i) in best.iter().enumerate() {
-            kept.lanes[s] = c.lanes[i];
-            kept.lens[s] = c.lens[i];
-            kept.tracks[s * steps..s * steps + cut]
-                .copy_from_slice(&c.tracks[i * steps..i * steps + cut]);
-        }
-        let kc = &mut kept;
-        lanes.roll_stretch::<ANY, true>(
-            (key, 0),
-            &mut kc.lanes,
-            cut,
-            steps,
-            &mut kc.tracks,
-            &mut kc.lens,
-        );
-        for s in 0..k {
-            let t = &mut kept.tracks[s * steps..(s + 1) * steps];
-            kept.scores[s] = finish_sample(t, kept.lens[s], kept.lanes[s].score);
-        }
+        let (c, best) = best_at_cut(&lanes, key, m, cut, k);
+        let kept = on_from_cut(&lanes, key, &c, &best, |_| None, cut);
         assert_eq!(bits(&pruned.tracks[..k * steps]), bits(&kept.tracks));
         assert_eq!(&pruned.lens[..k], &kept.lens[..]);
         assert_eq!(&pruned.scores[..k], &kept.scores[..]);
@@ -450,50 +481,10 @@ mod tests {
         // the same by hand: all to the checkpoint, the best half of k by (projected
         // reach, score), in the order drawn, then each kept one and its copy (after the
         // kept ones, drawing from copy_seed) to the horizon
-        let mut by_hand = scratch(m, steps);
-        let c = &mut by_hand;
-        lanes.roll_stretch::<ANY, true>((key, 0), &mut c.lanes, 0, cut, &mut c.tracks, &mut c.lens);
-        let mut memo = FlowMemo::default();
-        memo.start();
-        let reach: Vec<u32> = (0..m)
-            .map(|i| match c.lens[i] as usize {
-                l if l == cut => l as u32 + lanes.look_ahead(&c.lanes[i], steps - cut, &mut memo),
-                l => l as u32,
-            })
-            .collect();
-        let mut best: Vec<usize> = (0..m).collect();
-        best.sort_by(|&x, &y| {
-            (reach[y], c.lanes[y].score)
-                .partial_cmp(&(reach[x], c.lanes[x].score))
-                .unwrap()
-                .then(x.cmp(&y))
-        });
-        best.truncate(k / 2);
-        best.sort();
-        let mut doubled = scratch(k, steps);
-        for d in 0..k {
-            let j = best[d % (k / 2)];
-            doubled.lanes[d] = c.lanes[j];
-            if d >= k / 2 {
-                doubled.lanes[d].reseed(copy_seed(key, 0, d));
-            }
-            doubled.lens[d] = c.lens[j];
-            doubled.tracks[d * steps..d * steps + cut]
-                .copy_from_slice(&c.tracks[j * steps..j * steps + cut]);
-        }
-        let dc = &mut doubled;
-        lanes.roll_stretch::<ANY, true>(
-            (key, 0),
-            &mut dc.lanes,
-            cut,
-            steps,
-            &mut dc.tracks,
-            &mut dc.lens,
-        );
-        for d in 0..k {
-            let t = &mut doubled.tracks[d * steps..(d + 1) * steps];
-            doubled.scores[d] = finish_sample(t, doubled.lens[d], doubled.lanes[d].score);
-        }
+        let (c, best) = best_at_cut(&lanes, key, m, cut, k / 2);
+        let picks: Vec<usize> = (0..k).map(|d| best[d % (k / 2)]).collect();
+        let copy = |d: usize| (d >= k / 2).then(|| copy_seed(key, 0, d));
+        let doubled = on_from_cut(&lanes, key, &c, &picks, copy, cut);
         assert_eq!(bits(&pruned.tracks[..k * steps]), bits(&doubled.tracks));
         assert_eq!(&pruned.lens[..k], &doubled.lens[..]);
         assert_eq!(&pruned.scores[..k], &doubled.scores[..]);
