@@ -175,13 +175,11 @@ impl Options {
     /// same instructions (`cargo bench --bench options_cost`, BENCHMARKS.md): scores
     /// cost 1.2-1.3 times the paper, follow 1.3-1.7 times; `improved` (2 candidates
     /// pruned and resampled, follow, scores, trust, blend, consensus) 2.7-3.0 times on
-    /// the baseline path and 3.2-3.6 on AVX2 + FMA; with 4 candidates cut to 2 and to 1
-    /// per sample (its earlier schedule)
-    /// 4.3-4.8 times on the baseline path and up to 5.4 on AVX2, 6.9-7.8 without
-    /// pruning. The speed kernel and
-    /// coasting cost 1.2 times the paper on the baseline path (the count here) but 1.5-1.9
-    /// on AVX2, where they run the generic loop beside the paper's eight-lane one
-    /// (2.2-2.5 with both and scores).
+    /// the baseline path and 3.2-3.6 on AVX2 + FMA (with its earlier 4 candidates cut to
+    /// 2 and to 1 per sample: 4.3-4.8 and up to 5.4, 6.9-7.8 without pruning). The speed
+    /// kernel and coasting cost 1.2 times the paper on the baseline path (the count
+    /// here) but 1.5-1.9 on AVX2, where they run the generic loop beside the paper's
+    /// eight-lane one (2.2-2.5 with both and scores).
     ///
     /// ```
     /// use cliff::predict::Options;
@@ -284,8 +282,8 @@ pub struct Checkpoint {
 /// The checkpoints of a pruned rollout ([`Checkpoint`]): the best half of `k` kept at a
 /// fifth of the horizon (ranked with the flow walk), at half and at eight tenths, each
 /// going on twice, from `2 k` candidates (the `improved` preset). So the candidates
-/// roll 1.2 times the kept samples' steps, and the samples choose four times among two
-/// (BENCHMARKS.md, "Resampling the best candidates"): more accurate on average and
+/// roll 1.2 times the kept samples' steps, and the samples are chosen three times, the
+/// better half each time (BENCHMARKS.md, "Resampling the best candidates"): more accurate on average and
 /// further reaching than four candidates per sample cut to two at a fifth and to one at
 /// seven tenths (2.1 times the steps), less diverse (pairs of samples share their path
 /// up to the last checkpoint).
@@ -308,16 +306,20 @@ pub const PRUNE_SCHEDULE: &[Checkpoint] = &[
 ];
 
 impl Checkpoint {
+    /// How many candidates each kept one goes on as (0 counts as 1).
+    pub(super) fn copies(&self) -> usize {
+        self.copies.max(1) as usize
+    }
+
     /// The candidates kept at this checkpoint for `k` samples (see [`Checkpoint`]).
     pub(super) fn kept(&self, k: usize) -> usize {
-        let copies = self.copies.max(1) as usize;
-        ((self.keep * k as f64).ceil() as usize).max(k.div_ceil(copies))
+        ((self.keep * k as f64).ceil() as usize).max(k.div_ceil(self.copies()))
     }
 
     /// How many candidates go on after it, per kept sample, from `rolling` (the
     /// checkpoints' rounding aside).
     pub(super) fn going_on(&self, rolling: f64) -> f64 {
-        let copies = self.copies.max(1) as f64;
+        let copies = self.copies() as f64;
         rolling.min(self.keep.max(1.0 / copies) * copies)
     }
 }

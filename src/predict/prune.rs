@@ -56,7 +56,7 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
         let mut cuts = schedule.iter().enumerate().map(|(c, cut)| {
             let step = ((cut.at * steps as f64).round() as usize).clamp(1, steps.max(2) - 1);
             let walk = cut.at < FLOW_WALK_BEFORE;
-            (step, cut.kept(k), walk, cut.copies.max(1) as usize, c)
+            (step, cut.kept(k), walk, cut.copies(), c)
         });
         loop {
             let (to, keep, walk, copies, cut) = loop {
@@ -112,7 +112,7 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
                 }
                 // each kept one goes on as `copies`: the copies after the kept ones,
                 // with their paths so far and generators of their own
-                m = (keep * copies).min(room).max(keep);
+                m = (keep * copies).min(room);
                 for d in keep..m {
                     let s = d % keep;
                     lanes[d] = lanes[s];
