@@ -264,6 +264,63 @@ fn a_score_buffer_of_the_wrong_size_is_refused() {
 }
 
 /// The bits of a batch's positions.
+#[test]
+fn a_call_after_others_on_a_thread_predicts_as_on_a_fresh_thread() {
+    // (a rollout leaves its buffers to the thread's next one)
+    let (map, agents) = thor_agents();
+    let map = std::sync::Arc::new(map);
+    let improved = Params {
+        method: Method::Improved,
+        k: 7,
+        seed: 4,
+        ..Params::default()
+    };
+    let call = |map: &CliffMap, params: &Params, options: &Options| {
+        let mut batch = TrajectoryBatch::new();
+        predict_with(map, &agents, params, options, &mut batch).unwrap();
+        (bits(&batch), batch.lens().to_vec(), batch.scores().to_vec())
+    };
+    let fresh = std::thread::scope(|s| {
+        s.spawn(|| call(&map, &improved, &Options::default()))
+            .join()
+            .unwrap()
+    });
+    let after = std::thread::scope(|s| {
+        s.spawn(|| {
+            // larger calls first: more candidates, more samples, a longer horizon
+            let wide = Options {
+                candidates: 6,
+                prune: true,
+                follow: 4.0,
+                scores: true,
+                ..Options::default()
+            };
+            let long = Params {
+                k: 20,
+                horizon: 30.0,
+                seed: 9,
+                ..improved
+            };
+            call(
+                &map,
+                &Params {
+                    method: Method::Cliff,
+                    ..long
+                },
+                &wide,
+            );
+            call(&map, &long, &Options::default());
+            call(&map, &improved, &Options::default())
+        })
+        .join()
+        .unwrap()
+    });
+    assert_eq!(after.1, fresh.1);
+    assert_eq!(after.0, fresh.0);
+    assert_eq!(after.2, fresh.2);
+    assert!(!fresh.2.is_empty());
+}
+
 fn bits(b: &TrajectoryBatch) -> Vec<u32> {
     b.positions()
         .iter()

@@ -25,6 +25,32 @@ pub(super) struct Candidates {
     pub(super) flow: FlowMemo,
 }
 
+thread_local! {
+    /// The buffers of the last rollout dropped on this thread ([`Candidates::reuse`]).
+    static SPARE: std::cell::Cell<Option<Candidates>> = const { std::cell::Cell::new(None) };
+}
+
+/// The largest buffers a thread keeps for its next rollout, in candidates' positions
+/// (12 bytes each with their share of the rest; larger ones are freed).
+const SPARE_POSITIONS: usize = 1 << 18;
+
+impl Candidates {
+    /// Buffers for a new rollout: those the last rollout dropped on this thread left
+    /// (grown to its calls' sizes), or empty ones. An in-process call makes a rollout of
+    /// its own; with these, calls after the first on a thread allocate nothing.
+    pub(super) fn reuse() -> Candidates {
+        SPARE.take().unwrap_or_default()
+    }
+
+    /// Leave these buffers to the next rollout on this thread ([`reuse`](Self::reuse)),
+    /// unless they are larger than [`SPARE_POSITIONS`].
+    pub(super) fn spare(self) {
+        if self.tracks.capacity() <= SPARE_POSITIONS {
+            SPARE.set(Some(self));
+        }
+    }
+}
+
 /// The order key of candidate `i`, which reaches `len` with score `score`: the furthest
 /// reaching first, then the highest score (in [`f32::total_cmp`]'s order), then the one
 /// drawn first, as one unsigned integer (greater ranks first).

@@ -5,14 +5,15 @@
 //! checkpoints before [`FLOW_WALK_BEFORE`] of the horizon and for a candidate still
 //! going, the steps a walker following the map's likeliest flow from where it is would
 //! stay on the map: [`Lanes::look_ahead`]), then the highest partial score, ties to the
-//! one drawn first.
+//! one drawn first. The walks go best-scored first and stop once enough candidates
+//! are projected to the horizon to fill the checkpoint (`Lanes::project_reach`).
 
 use glam::DVec2;
 
 use super::Checkpoint;
 #[cfg(doc)]
 use super::PRUNE_SCHEDULE;
-use super::candidates::{Candidates, best};
+use super::candidates::{Candidates, best, rank};
 use super::flow_memo::{FlowMemo, flow_key};
 use super::lanes::{Lane, Lanes, finish_sample};
 use crate::math::fastmath::{acos_f32_with, exp_neg_f32};
@@ -90,16 +91,10 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
                     *s = lane.score;
                 }
                 reach.clear();
+                reach.extend_from_slice(&lens[..m]);
                 if walk {
-                    flow.start();
-                }
-                for (&len, lane) in lens[..m].iter().zip(&lanes[..m]) {
-                    let ahead = if walk && len as usize == to {
-                        self.look_ahead(lane, steps - to, flow)
-                    } else {
-                        0
-                    };
-                    reach.push(len + ahead);
+                    let (lanes, scores) = (&lanes[..m], &scores[..m]);
+                    self.project_reach((to, steps), keep, lanes, scores, reach, keys, order, flow);
                 }
                 best(reach, &scores[..m], keep, keys, order);
                 for (s, &i) in order[..keep].iter().enumerate() {
@@ -135,6 +130,46 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
 }
 
 impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
+    /// The projected reach at checkpoint step `to` of `steps`, where the best `keep`
+    /// candidates go on: `reach` holds the steps each candidate reached, and those that
+    /// reached the checkpoint gain the steps their flow walk stays on the map
+    /// ([`look_ahead`](Self::look_ahead), one memo for the checkpoint). They walk
+    /// best-scored first (ties: the one drawn first) and stop once `keep` of them are
+    /// projected to the horizon: a candidate not walked could not rank above those (its
+    /// reach would be no further, its score is lower), so it keeps the steps it reached.
+    /// `keys` and `order` are scratch.
+    #[allow(clippy::too_many_arguments)] // the checkpoint's buffers
+    fn project_reach(
+        &self,
+        (to, steps): (usize, usize),
+        keep: usize,
+        lanes: &[Lane],
+        scores: &[f32],
+        reach: &mut [u32],
+        keys: &mut Vec<u128>,
+        order: &mut [u32],
+        memo: &mut FlowMemo,
+    ) {
+        memo.start();
+        // those that reached the checkpoint first (no candidate gets further), best-scored
+        rank(reach, scores, keys, order);
+        let mut horizon = 0;
+        for &i in &order[..reach.len()] {
+            let i = i as usize;
+            if reach[i] as usize != to {
+                break;
+            }
+            let ahead = self.look_ahead(&lanes[i], steps - to, memo);
+            reach[i] += ahead;
+            if ahead as usize == steps - to {
+                horizon += 1;
+                if horizon == keep {
+                    break;
+                }
+            }
+        }
+    }
+
     /// How many of the next `max` steps the sample in `lane` would stay near the map if
     /// it followed the map's likeliest flow from where it is: a walker that starts with
     /// the sample's position, heading and speed, and at each step turns towards the mean
@@ -362,26 +397,34 @@ mod tests {
     }
 
     /// By hand: `m` candidates of the agent of key `key` rolled to step `cut`, and the
-    /// best `n` of them by (projected reach, partial score), in the order drawn.
+    /// best `n` of them by (projected reach, partial score), in the order drawn; with
+    /// how many of them the flow walks project to the horizon.
     fn best_at_cut<F: Fn(DVec2) -> Option<usize>>(
         lanes: &Lanes<'_, F>,
         key: u64,
         m: usize,
         cut: usize,
         n: usize,
-    ) -> (Candidates, Vec<usize>) {
+    ) -> (Candidates, Vec<usize>, usize) {
         let steps = lanes.params.steps();
         let mut c = scratch(m, steps);
         lanes.roll_stretch::<ANY, true>((key, 0), &mut c.lanes, 0, cut, &mut c.tracks, &mut c.lens);
-        // the projected reach: the flow walk from those that reached the cut
+        // the projected reach: the flow walk from each that reached the cut, all of
+        // them, the best-scored first (ties: the one drawn first), one memo
         let mut memo = FlowMemo::default();
         memo.start();
-        let reach: Vec<u32> = (0..m)
-            .map(|i| match c.lens[i] as usize {
-                l if l == cut => l as u32 + lanes.look_ahead(&c.lanes[i], steps - cut, &mut memo),
-                l => l as u32,
-            })
-            .collect();
+        let mut walkers: Vec<usize> = (0..m).filter(|&i| c.lens[i] as usize == cut).collect();
+        walkers.sort_by(|&x, &y| {
+            c.lanes[y]
+                .score
+                .total_cmp(&c.lanes[x].score)
+                .then(x.cmp(&y))
+        });
+        let mut reach: Vec<u32> = c.lens.clone();
+        for &i in &walkers {
+            reach[i] += lanes.look_ahead(&c.lanes[i], steps - cut, &mut memo);
+        }
+        let horizon = reach.iter().filter(|&&r| r as usize == steps).count();
         let mut best: Vec<usize> = (0..m).collect();
         best.sort_by(|&x, &y| {
             (reach[y], c.lanes[y].score)
@@ -391,7 +434,7 @@ mod tests {
         });
         best.truncate(n);
         best.sort();
-        (c, best)
+        (c, best, horizon)
     }
 
     /// By hand: slot `d` takes candidate `picks[d]` of `c` at step `cut` (its generator
@@ -450,8 +493,10 @@ mod tests {
         };
         let left = lanes.roll_pruned::<ANY>(key, &[once], k, steps, true, &mut pruned);
         assert_eq!(left, k);
-        // the same by hand: all candidates to the cut, the best k by (reach, score)
-        let (c, best) = best_at_cut(&lanes, key, m, cut, k);
+        // the same by hand: all candidates to the cut, the best k by (reach, score),
+        // every flow walked (the checkpoint stops once k are projected to the horizon)
+        let (c, best, horizon) = best_at_cut(&lanes, key, m, cut, k);
+        assert!(horizon > k, "{horizon}");
         let kept = on_from_cut(&lanes, key, &c, &best, |_| None, cut);
         assert_eq!(bits(&pruned.tracks[..k * steps]), bits(&kept.tracks));
         assert_eq!(&pruned.lens[..k], &kept.lens[..]);
@@ -481,7 +526,7 @@ mod tests {
         // the same by hand: all to the checkpoint, the best half of k by (projected
         // reach, score), in the order drawn, then each kept one and its copy (after the
         // kept ones, drawing from copy_seed) to the horizon
-        let (c, best) = best_at_cut(&lanes, key, m, cut, k / 2);
+        let (c, best, _) = best_at_cut(&lanes, key, m, cut, k / 2);
         let picks: Vec<usize> = (0..k).map(|d| best[d % (k / 2)]).collect();
         let copy = |d: usize| (d >= k / 2).then(|| copy_seed(key, 0, d));
         let doubled = on_from_cut(&lanes, key, &c, &picks, copy, cut);

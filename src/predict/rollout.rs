@@ -89,7 +89,8 @@ pub struct Rollout {
     seed: u64,
     /// Agents predicted so far (the index of the next agent in the call).
     next_agent: u64,
-    /// Buffers for [`Options::candidates`], grown once and reused.
+    /// Buffers for [`Options::candidates`], grown once and reused (and left to the next
+    /// rollout on the thread when this one is dropped).
     scratch: Candidates,
     /// The instructions the lane loop runs on (available on this processor).
     simd: Simd,
@@ -109,7 +110,7 @@ impl Rollout {
             tables: Tables::Build,
             seed: params.seed,
             next_agent: 0,
-            scratch: Candidates::default(),
+            scratch: Candidates::reuse(),
             simd: Simd::active(),
         })
     }
@@ -258,6 +259,13 @@ impl Rollout {
     }
 }
 
+impl Drop for Rollout {
+    /// Leave the buffers to the thread's next rollout (an in-process call's).
+    fn drop(&mut self) {
+        std::mem::take(&mut self.scratch).spare();
+    }
+}
+
 impl Rollout {
     /// [`predict_agents`](Self::predict_agents) with the agents shared among rayon's
     /// threads (all cores, unless the caller runs it in a smaller pool): the same bytes
@@ -325,7 +333,7 @@ impl Rollout {
             tables: self.tables,
             seed: self.seed,
             next_agent: self.next_agent + agents,
-            scratch: Candidates::default(),
+            scratch: Candidates::reuse(),
             simd: self.simd,
         }
     }
