@@ -3,7 +3,8 @@
 //! trust, blend and scores as the options say, and neither the speed kernel nor
 //! coasting (the `improved` preset's step). Written with intrinsics like the paper's
 //! loop (`lanes_avx2.rs`): the generators, the follow weights and the component choice
-//! (gathers, slot by slot: [`CliffMap::lane_following8`]), the heading kernel, the
+//! (slot by slot, each lane's blocks loaded whole and transposed:
+//! [`CliffMap::lane_following8`]), the heading kernel, the
 //! headings' angles for the scores and the map lookups run on eight lanes at once; the
 //! scores' densities lane by lane (a location's components are one aligned block,
 //! cheaper to read whole than to gather). It gives the bits of the generic loop's AVX2
