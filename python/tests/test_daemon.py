@@ -57,8 +57,8 @@ def test_daemon_options_scores_and_time_give_the_in_process_numbers(daemon, thor
         dict(method="cliff", speed_beta=1.0, coast=12.0),
     ]
     for i, kw in enumerate(cases):
-        # the daemon's limits count improved as 4 requests (pruned candidates, follow):
-        # at k 20 and 30 steps it takes at most 66 people
+        # the daemon's limits count improved as 3 requests (pruned candidates, follow):
+        # at k 20 and 30 steps it takes at most 88 people
         hs = thor1_histories[:20] if kw["method"] == "improved" else thor1_histories
         remote = client.predict("thor1", hs, k=20, seed=i, **kw)
         local = cliff_lhmp.predict(thor1_map, hs, k=20, seed=i, **kw)

@@ -168,15 +168,16 @@ impl Options {
     /// follow on (else 1), and with [`Options::candidates`] > 1 that times the samples'
     /// steps rolled per kept sample's step (the candidates, or fewer when
     /// [pruned](Options::prune)), times 1.25 for their scores without follow (follow's
-    /// 2 includes them), plus 1 for a pruned rollout's flow walks at its checkpoints,
-    /// rounded up. What a daemon's cost limits and its scheduler count.
+    /// 2 includes them), plus a half for a pruned rollout's flow walks at its
+    /// checkpoints, rounded up. What a daemon's cost limits and its scheduler count.
     ///
     /// Measured per call on the benchmark people, against the paper's method on the
     /// same instructions (`cargo bench --bench options_cost`, BENCHMARKS.md): scores
     /// cost 1.2-1.3 times the paper, follow 1.3-1.7 times; `improved` (2 candidates
-    /// pruned and resampled, follow, scores, trust, blend, consensus) 2.7-3.0 times on
-    /// the baseline path and 3.2-3.6 on AVX2 + FMA (with its earlier 4 candidates cut to
-    /// 2 and to 1 per sample: 4.3-4.8 and up to 5.4, 6.9-7.8 without pruning). The speed
+    /// pruned and resampled, follow, scores, trust, blend, consensus) 2.5-2.9 times on
+    /// the baseline path and 2.6-3.0 on AVX2 + FMA, its flow walks 0.4-0.5 of that (with
+    /// its earlier 4 candidates cut to 2 and to 1 per sample: 4.3-4.8 and up to 5.4,
+    /// 6.9-7.8 without pruning). The speed
     /// kernel and coasting cost 1.2 times the paper on the baseline path (the count
     /// here) but 1.5-1.9 on AVX2, where they run the generic loop beside the paper's
     /// eight-lane one (2.2-2.5 with both and scores).
@@ -188,8 +189,8 @@ impl Options {
     /// assert_eq!(Options { follow: 4.0, candidates: 5, ..Options::default() }.cost_factor(), 10);
     /// assert_eq!(Options { candidates: 5, ..Options::default() }.cost_factor(), 7);
     /// let pruned = Options { follow: 4.0, candidates: 2, prune: true, ..Options::default() };
-    /// // 2 to a fifth of the horizon, then 1 (half of them, each twice): 1.2 x 2 + 1
-    /// assert_eq!(pruned.cost_factor(), 4);
+    /// // 2 to a fifth of the horizon, then 1 (half of them, each twice): 1.2 x 2 + 0.5
+    /// assert_eq!(pruned.cost_factor(), 3);
     /// ```
     pub fn cost_factor(&self) -> usize {
         let follow = self.follow > 0.0;
@@ -205,9 +206,10 @@ impl Options {
         };
         // candidates are scored (to rank them): about 1.25 times the paper's step, and
         // within follow's step of 2 (its loop computes them beside the follow draw); a
-        // pruned rollout walks the flow from its candidates at a checkpoint
+        // pruned rollout walks the flow from its candidates at a checkpoint (0.4-0.5
+        // times the paper's work on the benchmark people)
         let scored = if follow { 1.0 } else { 1.25 };
-        let walks = if self.prune { 1.0 } else { 0.0 };
+        let walks = if self.prune { 0.5 } else { 0.0 };
         (drawn * step * scored + walks).ceil() as usize
     }
 

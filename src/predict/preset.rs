@@ -82,7 +82,7 @@ pub const IMPROVED: Preset = Preset {
 };
 
 /// How many times the paper's work a call of `params` with `options` does, at most
-/// ([`Options::cost_factor`] of the preset's options for [`Method::Improved`]: 4): what
+/// ([`Options::cost_factor`] of the preset's options for [`Method::Improved`]: 3): what
 /// a daemon's cost limits count.
 pub fn cost_factor(params: &Params, options: &Options) -> usize {
     resolve(params, options).1.cost_factor()

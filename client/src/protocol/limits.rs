@@ -40,7 +40,7 @@ impl Limits {
 
     /// The most positions of CLiFF-LHMP's cost one request may ask for:
     /// `max_agents x max_k x max_steps`. A request whose method costs a multiple of
-    /// CLiFF-LHMP per position ([`cliff::predict::preset::cost_factor`]: 4 for the
+    /// CLiFF-LHMP per position ([`cliff::predict::preset::cost_factor`]: 3 for the
     /// improved preset, its pruned candidates and its follow draw) may hold
     /// that many positions
     /// divided by the factor.
