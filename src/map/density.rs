@@ -38,7 +38,7 @@
 use std::f32::consts::TAU;
 
 use super::build::Gauss2;
-use crate::math::f32x4::F32x4;
+use crate::math::f32x4::{F32x4, ROUND_MAGIC};
 
 /// Four components, field by field (two cache lines), and where the location's other
 /// blocks are.
@@ -121,6 +121,88 @@ impl StepDensities {
     }
 }
 
+#[cfg(target_arch = "x86_64")]
+impl StepDensities {
+    /// [`log_density`](Self::log_density) of eight lanes (locations `loc`, headings
+    /// `theta`, speeds `rho`): the first blocks' fields loaded whole and transposed, the
+    /// four components' terms and their largest for eight lanes at once (the
+    /// operations and the order of `Block::terms` and `F32x4::max_lane`, so the same
+    /// bits), the further blocks lane by lane.
+    ///
+    /// # Safety
+    /// The processor must have AVX2 and FMA; every lane of `loc` must be a location.
+    #[target_feature(enable = "avx2,fma")]
+    #[inline]
+    pub(super) unsafe fn log_density8(
+        &self,
+        loc: std::arch::x86_64::__m256i,
+        theta: std::arch::x86_64::__m256,
+        rho: std::arch::x86_64::__m256,
+    ) -> std::arch::x86_64::__m256 {
+        use std::arch::x86_64::*;
+        use std::mem::offset_of;
+        let mut at = [0u32; 8];
+        // SAFETY: eight lanes.
+        unsafe { _mm256_storeu_si256(at.as_mut_ptr() as *mut __m256i, loc) };
+        debug_assert!(at.iter().all(|&i| (i as usize) < self.first.len()));
+        let base = self.first.as_ptr() as *const u8;
+        // SAFETY: each lane's block is one of `first` (as this function requires).
+        let field = |offset: usize| unsafe {
+            super::block_loads::slots4(std::array::from_fn(|l| {
+                base.add(at[l] as usize * std::mem::size_of::<Block>() + offset) as *const f32
+            }))
+        };
+        let (mu, rho_c, slope) = (
+            field(offset_of!(Block, mu)),
+            field(offset_of!(Block, rho)),
+            field(offset_of!(Block, slope)),
+        );
+        let (h_theta, h_rho, log_norm) = (
+            field(offset_of!(Block, h_theta)),
+            field(offset_of!(Block, h_rho)),
+            field(offset_of!(Block, log_norm)),
+        );
+        let s = _mm256_set1_ps;
+        let (sub, mul) = (_mm256_sub_ps, _mm256_mul_ps);
+        let magic = s(ROUND_MAGIC);
+        let terms: [__m256; 4] = std::array::from_fn(|c| {
+            let dr = sub(rho, rho_c[c]);
+            let x = sub(sub(theta, mu[c]), mul(slope[c], dr));
+            let turns = sub(_mm256_add_ps(mul(x, s(1.0 / TAU)), magic), magic);
+            let x = sub(x, mul(s(TAU), turns));
+            sub(
+                sub(log_norm[c], mul(mul(h_rho[c], dr), dr)),
+                mul(mul(h_theta[c], x), x),
+            )
+        });
+        // (max_lane's pairs: the first with the third, the second with the fourth)
+        let most = _mm256_max_ps(
+            _mm256_max_ps(terms[0], terms[2]),
+            _mm256_max_ps(terms[1], terms[3]),
+        );
+        let mut out = [0.0f32; 8];
+        // SAFETY: eight lanes.
+        unsafe { _mm256_storeu_ps(out.as_mut_ptr(), most) };
+        let (mut th, mut r) = ([0.0f32; 8], [0.0f32; 8]);
+        // SAFETY: eight lanes.
+        unsafe {
+            _mm256_storeu_ps(th.as_mut_ptr(), theta);
+            _mm256_storeu_ps(r.as_mut_ptr(), rho);
+        }
+        for l in 0..8 {
+            let b = &self.first[at[l] as usize];
+            if b.more[0] != b.more[1] {
+                let (theta, rho) = (F32x4::splat(th[l]), F32x4::splat(r[l]));
+                out[l] = self.more[b.more[0] as usize..b.more[1] as usize]
+                    .iter()
+                    .fold(out[l], |m, blk| m.max(blk.terms(theta, rho).max_lane()));
+            }
+        }
+        // SAFETY: eight lanes.
+        unsafe { _mm256_loadu_ps(out.as_ptr()) }
+    }
+}
+
 /// One block of up to four components.
 fn block(comps: &[Gauss2]) -> Block {
     let mut b = Block::EMPTY;
@@ -153,5 +235,73 @@ impl Block {
         let x = x - s(TAU) * (x * s(1.0 / TAU)).round();
         (F32x4::load(&self.log_norm) - F32x4::load(&self.h_rho) * dr * dr)
             - F32x4::load(&self.h_theta) * x * x
+    }
+}
+
+#[cfg(all(test, target_arch = "x86_64"))]
+mod tests {
+    use crate::map::CliffMap;
+    use crate::math::Simd;
+    use std::arch::x86_64::*;
+
+    #[test]
+    fn eight_lanes_give_each_lanes_step_density_bits() {
+        if !Simd::Avx2Fma.available() {
+            return;
+        }
+        let data = concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/data/");
+        let atc = CliffMap::load(format!("{data}atc/cliffmap-20121024.csv")).unwrap();
+        // (ATC's map has locations of more than four components: their further blocks)
+        for (map, has_more) in [(CliffMap::demo(), false), (atc, true)] {
+            let d = &map.step_density;
+            let n = d.first.len();
+            let more = (0..n)
+                .filter(|&i| d.first[i].more[0] != d.first[i].more[1])
+                .count();
+            let mut state = 0x2545_f491_4f6c_dd1du64;
+            let mut next = move || {
+                state ^= state << 13;
+                state ^= state >> 7;
+                state ^= state << 17;
+                state
+            };
+            for round in 0..2000 {
+                // locations (in turn those with further blocks), headings a few turns
+                // either way, speeds from standing to running
+                let loc: [u32; 8] = std::array::from_fn(|l| match (round + l) % 3 {
+                    0 if more > 0 => (0..n)
+                        .filter(|&i| d.first[i].more[0] != d.first[i].more[1])
+                        .nth(next() as usize % more)
+                        .unwrap() as u32,
+                    _ => (next() % n as u64) as u32,
+                });
+                let theta: [f32; 8] =
+                    std::array::from_fn(|_| (next() % 40_000) as f32 * 0.001 - 20.0);
+                let rho: [f32; 8] = std::array::from_fn(|_| (next() % 3000) as f32 * 0.001);
+                let mut got = [0.0f32; 8];
+                // SAFETY: AVX2 and FMA (checked above); the locations are the map's.
+                unsafe {
+                    let v = map.step_log_density8(
+                        _mm256_loadu_si256(loc.as_ptr() as *const __m256i),
+                        _mm256_loadu_ps(theta.as_ptr()),
+                        _mm256_loadu_ps(rho.as_ptr()),
+                    );
+                    _mm256_storeu_ps(got.as_mut_ptr(), v);
+                }
+                for l in 0..8 {
+                    let want = map.step_log_density_at(loc[l] as usize, theta[l], rho[l]);
+                    assert_eq!(
+                        got[l].to_bits(),
+                        want.to_bits(),
+                        "{:?}",
+                        (loc[l], theta[l], rho[l])
+                    );
+                }
+            }
+            assert!(
+                !has_more || more > 0,
+                "no location with more than four components"
+            );
+        }
     }
 }

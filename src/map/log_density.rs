@@ -55,4 +55,25 @@ impl CliffMap {
         let v = self.step_density.log_density(index, theta, rho);
         if v <= -1e29 { f32::NEG_INFINITY } else { v }
     }
+
+    /// [`step_log_density_at`](Self::step_log_density_at) of eight lanes (locations
+    /// `loc`, headings `theta`, speeds `rho`): the same bits, eight to a register.
+    ///
+    /// # Safety
+    /// The processor must have AVX2 and FMA; every lane of `loc` must be a location.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    #[inline]
+    pub(crate) unsafe fn step_log_density8(
+        &self,
+        loc: std::arch::x86_64::__m256i,
+        theta: std::arch::x86_64::__m256,
+        rho: std::arch::x86_64::__m256,
+    ) -> std::arch::x86_64::__m256 {
+        use std::arch::x86_64::*;
+        // SAFETY: as this function requires.
+        let v = unsafe { self.step_density.log_density8(loc, theta, rho) };
+        let none = _mm256_cmp_ps::<_CMP_LE_OQ>(v, _mm256_set1_ps(-1e29));
+        _mm256_blendv_ps(v, _mm256_set1_ps(f32::NEG_INFINITY), none)
+    }
 }

@@ -43,6 +43,8 @@
 //! | [`update`] | the online update |
 //! | [`timeofday`] | time-of-day map sets |
 
+#[cfg(target_arch = "x86_64")]
+mod block_loads;
 pub mod build;
 mod cliff_map;
 mod csv;

@@ -95,6 +95,10 @@ mod imp {
     }
 }
 
+/// 1.5 x 2^23: added and subtracted, it rounds an `f32` within `2^22` of zero to the
+/// nearest whole number, ties to even ([`F32x4::round`]).
+pub(crate) const ROUND_MAGIC: f32 = 12_582_912.0;
+
 impl F32x4 {
     /// All lanes `v`.
     #[inline(always)]
@@ -119,8 +123,7 @@ impl F32x4 {
     /// Round to the nearest whole number (ties to even), lanes within `2^22` of zero.
     #[inline(always)]
     pub(crate) fn round(self) -> Self {
-        const MAGIC: f32 = 12_582_912.0; // 1.5 * 2^23
-        (self + Self::splat(MAGIC)) - Self::splat(MAGIC)
+        (self + Self::splat(ROUND_MAGIC)) - Self::splat(ROUND_MAGIC)
     }
 }
 

@@ -2,7 +2,8 @@
 //! `PAPER` flavour, with or without scores, written with intrinsics so that every part
 //! of a step runs on eight lanes at once (the generators, the normal draw, the component
 //! choice and the map lookup by gathers, the bookkeeping of live lanes by masks; with
-//! scores, the headings' angles, and the densities lane by lane). It gives the bits of
+//! scores, the headings' angles and the densities, each location's first block of
+//! components loaded whole and transposed). It gives the bits of
 //! the generic loop's AVX2 copy (`Lanes::roll_body` with fused multiply-adds): the same
 //! draws, the same heading kernel (`turn`, here `turn_v`), the same lookups and scores.
 
@@ -250,12 +251,9 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
             let t = unsafe { map.lane_direction8(width, &loc, &u, &z) };
             turn_v(t, &mut ux, &mut uy, neg_beta, None);
             if SCORES {
-                // the step's log-density, lane by lane for the live lanes
-                let mut bits = 0u32;
-                for (v, a) in alive.iter().enumerate() {
-                    bits |= (_mm256_movemask_ps(_mm256_castsi256_ps(*a)) as u32) << (8 * v);
-                }
-                step_scores8(map, (&ux, &uy), &loc, bits, |_| speed, &mut step_score);
+                // the step's log-density, eight lanes to a register
+                let rho = [_mm256_set1_ps(speed); V];
+                step_scores8(map, (&ux, &uy), &loc, &rho, &mut step_score);
             }
             // Move, and find the sub-cells of the new positions (every register's first,
             // so that their cache misses overlap).
@@ -344,35 +342,28 @@ pub(super) fn advance8(
     }
 }
 
-/// The step's log-densities (`CliffMap::step_log_density_at`) of the lanes of `live`
-/// (bit `l` for lane `l`) into `out`: each lane's heading angle from `(ux, uy)` eight to a
-/// register (`x8::atan2`, the generic loop's `atan2_f32_with::<Fused>`), its location
-/// from `loc`, its speed `speed(l)`.
+/// The step's log-densities (`CliffMap::step_log_density_at`) of the `8 V` lanes into
+/// `out`, eight to a register (`CliffMap::step_log_density8`): each lane's heading angle
+/// from `(ux, uy)` (`x8::atan2`, the generic loop's `atan2_f32_with::<Fused>`), its
+/// location from `loc`, its speed from `rho`. The dead lanes' are written too (their
+/// locations are the map's; no score takes them).
 #[target_feature(enable = "avx2,fma")]
 #[inline]
 pub(super) fn step_scores8<const V: usize>(
     map: &crate::map::CliffMap,
     (ux, uy): (&[__m256; V], &[__m256; V]),
     loc: &[__m256i; V],
-    live: u32,
-    speed: impl Fn(usize) -> f32,
+    rho: &[__m256; V],
     out: &mut [f32; PACK],
 ) {
     let angle = x8::atan2(*uy, *ux);
-    let mut heading = [0.0f32; PACK];
-    let mut at = [0i32; PACK];
-    // SAFETY: the arrays hold PACK >= 8 V lanes.
-    unsafe {
-        for v in 0..V {
-            _mm256_storeu_ps(heading.as_mut_ptr().add(8 * v), angle[v]);
-            _mm256_storeu_si256(at.as_mut_ptr().add(8 * v) as *mut __m256i, loc[v]);
+    for v in 0..V {
+        // SAFETY: AVX2 and FMA; every lane's location is one of the map's (as the loops
+        // that call this keep them); the array holds PACK >= 8 V lanes.
+        unsafe {
+            let d = map.step_log_density8(loc[v], angle[v], rho[v]);
+            _mm256_storeu_ps(out.as_mut_ptr().add(8 * v), d);
         }
-    }
-    let mut bits = live;
-    while bits != 0 {
-        let l = bits.trailing_zeros() as usize;
-        bits &= bits - 1;
-        out[l] = map.step_log_density_at(at[l] as usize, heading[l], speed(l));
     }
 }
 

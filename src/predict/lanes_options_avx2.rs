@@ -5,9 +5,8 @@
 //! loop (`lanes_avx2.rs`): the generators, the follow weights and the component choice
 //! (slot by slot, each lane's blocks loaded whole and transposed:
 //! [`CliffMap::lane_following8`]), the heading kernel, the
-//! headings' angles for the scores and the map lookups run on eight lanes at once; the
-//! scores' densities lane by lane (a location's components are one aligned block,
-//! cheaper to read whole than to gather). It gives the bits of the generic loop's AVX2
+//! headings' angles and densities for the scores (`CliffMap::step_log_density8`) and
+//! the map lookups run on eight lanes at once. It gives the bits of the generic loop's AVX2
 //! copy (`Lanes::roll_body` with fused multiply-adds): the same draws, weights, turns,
 //! scores, positions and lookups, for whole rollouts and for the stretches of a pruned
 //! one.
@@ -210,19 +209,14 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
                 neg_beta,
                 trusting.then_some(gain as f32),
             );
-            // The step's log-density, lane by lane for the live lanes (all drew).
+            // The step's log-density, eight lanes to a register (each lane's speed in
+            // single precision, as `speed as f32` rounds it).
             if SCORES {
-                let mut speeds = [0.0f64; PACK];
-                // SAFETY: the array holds 8 V lanes.
-                unsafe {
-                    for (v, halves) in speed.iter().enumerate() {
-                        for (h, half) in halves.iter().enumerate() {
-                            _mm256_storeu_pd(speeds.as_mut_ptr().add(8 * v + 4 * h), *half);
-                        }
-                    }
-                }
-                let speed_of = |l: usize| speeds[l] as f32;
-                step_scores8(map, (&ux, &uy), &loc, alive_bits, speed_of, &mut step_score);
+                let rho: [__m256; V] = std::array::from_fn(|v| {
+                    let [lo, hi] = speed[v];
+                    _mm256_set_m128(_mm256_cvtpd_ps(hi), _mm256_cvtpd_ps(lo))
+                });
+                step_scores8(map, (&ux, &uy), &loc, &rho, &mut step_score);
             }
             // Move, and probe the sub-cells of the new positions (every register's first,
             // so that their cache misses overlap).
