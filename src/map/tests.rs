@@ -451,3 +451,59 @@ mod table_cache {
         }
     }
 }
+
+#[cfg(target_arch = "x86_64")]
+#[test]
+fn eight_lanes_give_each_lanes_step_density_bits() {
+    use crate::math::Simd;
+    use std::arch::x86_64::*;
+    if !Simd::Avx2Fma.available() {
+        return;
+    }
+    let data = concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/data/");
+    let atc = CliffMap::load(format!("{data}atc/cliffmap-20121024.csv")).unwrap();
+    // (ATC's map has locations of more than four components: their further blocks)
+    for (map, has_more) in [(CliffMap::demo(), false), (atc, true)] {
+        let n = map.locations().len();
+        let more: Vec<u32> = (0..n)
+            .filter(|&i| map.locations()[i].components.len() > 4)
+            .map(|i| i as u32)
+            .collect();
+        assert!(
+            !has_more || !more.is_empty(),
+            "no location of more than four components"
+        );
+        let mut state = 0x2545_f491_4f6c_dd1du64;
+        let mut next = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            state
+        };
+        for round in 0..2000 {
+            // locations (in turn those with further blocks), headings a few turns
+            // either way, speeds from standing to running
+            let loc: [u32; 8] = std::array::from_fn(|l| match (round + l) % 3 {
+                0 if !more.is_empty() => more[next() as usize % more.len()],
+                _ => (next() % n as u64) as u32,
+            });
+            let theta: [f32; 8] = std::array::from_fn(|_| (next() % 40_000) as f32 * 0.001 - 20.0);
+            let rho: [f32; 8] = std::array::from_fn(|_| (next() % 3000) as f32 * 0.001);
+            let mut got = [0.0f32; 8];
+            // SAFETY: AVX2 and FMA (checked above); the locations are the map's.
+            unsafe {
+                let v = map.step_log_density8(
+                    _mm256_loadu_si256(loc.as_ptr() as *const __m256i),
+                    _mm256_loadu_ps(theta.as_ptr()),
+                    _mm256_loadu_ps(rho.as_ptr()),
+                );
+                _mm256_storeu_ps(got.as_mut_ptr(), v);
+            }
+            for l in 0..8 {
+                let want = map.step_log_density_at(loc[l] as usize, theta[l], rho[l]);
+                let what = (loc[l], theta[l], rho[l]);
+                assert_eq!(got[l].to_bits(), want.to_bits(), "{what:?}");
+            }
+        }
+    }
+}
