@@ -494,13 +494,20 @@ impl CliffMap {
                 base.add(lane_first[v][l] as usize + b * floats + f)
             }))
         };
-        // the cosines of the heading with each slot's mean direction, and the largest
+        // each slot's weight, the cosines of the heading with each slot's mean
+        // direction, and the largest
+        let mut weights = [[_mm256_setzero_ps(); V]; 8];
         let mut cos = [[_mm256_setzero_ps(); V]; 8];
         let mut most = [_mm256_set1_ps(-1.0); V];
         for b in 0..slots.div_ceil(4) {
             for v in 0..V {
-                let (cm, sm) = (field4(b, cos_mu, v), field4(b, sin_mu, v));
+                let (w, cm, sm) = (
+                    field4(b, weight, v),
+                    field4(b, cos_mu, v),
+                    field4(b, sin_mu, v),
+                );
                 for i in 0..(slots - 4 * b).min(4) {
+                    weights[4 * b + i][v] = w[i];
                     let c = &mut cos[4 * b + i][v];
                     *c = _mm256_add_ps(_mm256_mul_ps(ux[v], cm[i]), _mm256_mul_ps(uy[v], sm[i]));
                     most[v] = _mm256_max_ps(most[v], *c);
@@ -511,15 +518,6 @@ impl CliffMap {
         let k = _mm256_set1_ps(kappa);
         let mut total = [_mm256_setzero_ps(); V];
         let mut cum = [[_mm256_setzero_ps(); V]; 8];
-        let mut weights = [[_mm256_setzero_ps(); V]; 8];
-        for b in 0..slots.div_ceil(4) {
-            for v in 0..V {
-                let w = field4(b, weight, v);
-                for (slot, w) in weights[4 * b..4 * b + 4].iter_mut().zip(w) {
-                    slot[v] = w;
-                }
-            }
-        }
         for s in 0..slots {
             for v in 0..V {
                 // SAFETY: AVX2, as this function requires.

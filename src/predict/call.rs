@@ -223,17 +223,23 @@ fn consensus_of(tracks: &[Point], lens: &[u32], scores: &mut [f32], centre: &mut
     // bits of one at a time: the steps past a sample's length add zero to its sum)
     const W: usize = 4;
     for (first, group) in scores.chunks_mut(W).enumerate() {
-        let row = |l: usize| {
+        // (a group of fewer than four repeats its last sample, with no steps)
+        let rows: [&[Point]; W] = std::array::from_fn(|l| {
             let s = W * first + l.min(group.len() - 1);
-            (&tracks[s * steps..(s + 1) * steps], lens[s] as usize)
-        };
-        let rows: [(&[Point], usize); W] = std::array::from_fn(row);
-        let len: [usize; W] = std::array::from_fn(|l| if l < group.len() { rows[l].1 } else { 0 });
+            &tracks[s * steps..(s + 1) * steps]
+        });
+        let len: [usize; W] = std::array::from_fn(|l| {
+            if l < group.len() {
+                lens[W * first + l] as usize
+            } else {
+                0
+            }
+        });
         let most = len.iter().copied().max().unwrap_or(0);
         let mut sum = [0.0f64; W];
         for (j, c) in centre[..most].iter().enumerate() {
             for l in 0..W {
-                let p = rows[l].0[j];
+                let p = rows[l][j];
                 // (a square root, not `hypot`: the positions are f32, far from overflow)
                 let (dx, dy) = (p[0] as f64 - c[0], p[1] as f64 - c[1]);
                 let d = (dx * dx + dy * dy).sqrt();
