@@ -23,6 +23,8 @@ pub(super) struct Candidates {
     pub(super) reach: Vec<u32>,
     /// The flow walks' shared states at a checkpoint.
     pub(super) flow: FlowMemo,
+    /// The order of the flow walks at a checkpoint (scratch).
+    pub(super) walk_order: Vec<u64>,
 }
 
 thread_local! {
@@ -56,10 +58,15 @@ impl Candidates {
 /// drawn first, as one unsigned integer (greater ranks first).
 #[inline]
 fn rank_key(len: u32, score: f32, i: usize) -> u128 {
+    ((len as u128) << 64) | ((score_order(score) as u128) << 32) | (u32::MAX - i as u32) as u128
+}
+
+/// A score as an unsigned integer in [`f32::total_cmp`]'s order (negative numbers
+/// reversed, below the others).
+#[inline]
+pub(super) fn score_order(score: f32) -> u32 {
     let b = score.to_bits();
-    // total_cmp's order as an unsigned one: negative numbers reversed, below the others
-    let s = if b >> 31 == 1 { !b } else { b | 0x8000_0000 };
-    ((len as u128) << 64) | ((s as u128) << 32) | (u32::MAX - i as u32) as u128
+    if b >> 31 == 1 { !b } else { b | 0x8000_0000 }
 }
 
 /// The `keep` best of the candidates of reaches `lens` and scores `scores` (as

@@ -1,9 +1,9 @@
 //! The states of the flow walks that project a pruned candidate's reach
-//! ([`Lanes::look_ahead`](super::lanes::Lanes::look_ahead), in `prune.rs`): which
+//! (`Lanes::project_reach`, in `flow_walk.rs`): which
 //! location and heading an earlier walk of the same checkpoint passed, and how many
 //! steps it stayed on the map from there.
 
-/// Heading bins of the flow walks' shared states (`Lanes::look_ahead`).
+/// Heading bins of the flow walks' shared states (`flow_walk.rs`).
 pub(super) const FLOW_BINS: usize = 32;
 
 /// The state key of a flow walk at location `loc` heading `(hx, hy)`.

@@ -34,6 +34,7 @@ mod call;
 mod candidates;
 mod cvm;
 mod flow_memo;
+mod flow_walk;
 mod lanes;
 #[cfg(target_arch = "x86_64")]
 mod lanes_avx2;

@@ -4,7 +4,7 @@
 //! before the horizon. Best: the furthest projected reach (the steps reached, plus, at
 //! checkpoints before [`FLOW_WALK_BEFORE`] of the horizon and for a candidate still
 //! going, the steps a walker following the map's likeliest flow from where it is would
-//! stay on the map: [`Lanes::look_ahead`]), then the highest partial score, ties to the
+//! stay on the map: `flow_walk.rs`), then the highest partial score, ties to the
 //! one drawn first. The walks go best-scored first and stop once enough candidates
 //! are projected to the horizon to fill the checkpoint (`Lanes::project_reach`).
 
@@ -13,12 +13,9 @@ use glam::DVec2;
 use super::Checkpoint;
 #[cfg(doc)]
 use super::PRUNE_SCHEDULE;
-use super::candidates::{Candidates, best, rank};
-use super::flow_memo::{FlowMemo, flow_key};
-use super::lanes::{Lane, Lanes, finish_sample};
-use crate::math::fastmath::{acos_f32_with, exp_neg_f32};
+use super::candidates::{Candidates, best};
+use super::lanes::{Lanes, finish_sample};
 use crate::math::lane_rng::lane_seed;
-use crate::math::simd::Separate;
 
 impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
     /// Roll the `scratch.lens.len()` candidates of one agent (their positions in
@@ -49,6 +46,7 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
             lanes,
             reach,
             flow,
+            walk_order,
             ..
         } = scratch;
         let room = lens.len();
@@ -93,8 +91,8 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
                 reach.clear();
                 reach.extend_from_slice(&lens[..m]);
                 if walk {
-                    let (lanes, scores) = (&lanes[..m], &scores[..m]);
-                    self.project_reach((to, steps), keep, lanes, scores, reach, keys, order, flow);
+                    let candidates = (&lanes[..m], &scores[..m]);
+                    self.project_reach((to, steps), keep, candidates, reach, walk_order, flow);
                 }
                 best(reach, &scores[..m], keep, keys, order);
                 for (s, &i) in order[..keep].iter().enumerate() {
@@ -129,117 +127,6 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
     }
 }
 
-impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
-    /// The projected reach at checkpoint step `to` of `steps`, where the best `keep`
-    /// candidates go on: `reach` holds the steps each candidate reached, and those that
-    /// reached the checkpoint gain the steps their flow walk stays on the map
-    /// ([`look_ahead`](Self::look_ahead), one memo for the checkpoint). They walk
-    /// best-scored first (ties: the one drawn first) and stop once `keep` of them are
-    /// projected to the horizon: a candidate not walked could not rank above those (its
-    /// reach would be no further, its score is lower), so it keeps the steps it reached.
-    /// `keys` and `order` are scratch.
-    #[allow(clippy::too_many_arguments)] // the checkpoint's buffers
-    fn project_reach(
-        &self,
-        (to, steps): (usize, usize),
-        keep: usize,
-        lanes: &[Lane],
-        scores: &[f32],
-        reach: &mut [u32],
-        keys: &mut Vec<u128>,
-        order: &mut [u32],
-        memo: &mut FlowMemo,
-    ) {
-        memo.start();
-        // those that reached the checkpoint first (no candidate gets further), best-scored
-        rank(reach, scores, keys, order);
-        let mut horizon = 0;
-        for &i in &order[..reach.len()] {
-            let i = i as usize;
-            if reach[i] as usize != to {
-                break;
-            }
-            let ahead = self.look_ahead(&lanes[i], steps - to, memo);
-            reach[i] += ahead;
-            if ahead as usize == steps - to {
-                horizon += 1;
-                if horizon == keep {
-                    break;
-                }
-            }
-        }
-    }
-
-    /// How many of the next `max` steps the sample in `lane` would stay near the map if
-    /// it followed the map's likeliest flow from where it is: a walker that starts with
-    /// the sample's position, heading and speed, and at each step turns towards the mean
-    /// direction of its location's likeliest component for its heading
-    /// ([`CliffMap::follow_mode`](crate::map::CliffMap::follow_mode), with the call's
-    /// follow concentration) by the heading kernel's weight, as a sample would without
-    /// the noise of the draws. The walks of one checkpoint share their ends: a walk that
-    /// comes to a location with a heading (in [`FLOW_BINS`](super::flow_memo::FLOW_BINS) bins) that an earlier walk
-    /// of the checkpoint passed stops there and takes that walk's count
-    /// ([`FlowMemo`]), so most walks take a few steps.
-    pub(super) fn look_ahead(&self, lane: &Lane, max: usize, memo: &mut FlowMemo) -> u32 {
-        let (alive, mut p, [mut hx, mut hy], speed) = lane.motion();
-        if !alive {
-            return 0;
-        }
-        let d = speed * self.params.dt;
-        let (beta, kappa) = (self.params.beta as f32, self.extras.follow as f32);
-        // (the lane loop looked the position up: its answer again, without the lookup)
-        let mut loc = lane.location().or_else(|| (self.near)(p));
-        debug_assert_eq!(loc, (self.near)(p));
-        memo.path.clear();
-        // steps walked, and what the rest of the walk is worth (a state seen before)
-        let mut n = 0usize;
-        let mut rest = None;
-        while n < max {
-            if let Some(l) = loc {
-                let key = flow_key(l, hx, hy);
-                if let Some(v) = memo.get(key) {
-                    rest = Some(v);
-                    break;
-                }
-                memo.path.push(key);
-                let (mx, my) = self.map.follow_mode(l, hx, hy, kappa);
-                let delta = acos_f32_with::<Separate>((mx * hx + my * hy).clamp(-1.0, 1.0));
-                let lambda = exp_neg_f32(-beta * delta * delta);
-                let (vx, vy) = (
-                    lambda * mx + (1.0 - lambda) * hx,
-                    lambda * my + (1.0 - lambda) * hy,
-                );
-                let norm = (vx * vx + vy * vy).sqrt();
-                if norm > 1e-6 {
-                    (hx, hy) = (vx / norm, vy / norm);
-                }
-            }
-            p += DVec2::new(hx as f64, hy as f64) * d;
-            loc = (self.near)(p);
-            if loc.is_none() {
-                break;
-            }
-            n += 1;
-        }
-        // the path's states, each worth the steps from it to the walk's end (or to the
-        // end of the state it met); a walk that reached `max` counts as never ending
-        let end = match rest {
-            Some(v) => (n as u64 + v as u64).min(u32::MAX as u64),
-            None if n >= max => u32::MAX as u64,
-            None => n as u64,
-        };
-        for i in 0..memo.path.len() {
-            let v = if end == u32::MAX as u64 {
-                u32::MAX
-            } else {
-                (end - i as u64) as u32
-            };
-            memo.insert(memo.path[i], v);
-        }
-        end.min(max as u64) as u32
-    }
-}
-
 /// The generator of copy `d` made at checkpoint `cut` of the agent of key `key`
 /// ([`Lanes::roll_pruned`]): not one a sample starts from.
 pub(super) fn copy_seed(key: u64, cut: usize, d: usize) -> [u32; 4] {
@@ -250,7 +137,7 @@ pub(super) fn copy_seed(key: u64, cut: usize, d: usize) -> [u32; 4] {
 }
 
 /// Checkpoints before this fraction of the horizon rank the candidates by their
-/// projected reach with the flow walk ([`Lanes::look_ahead`]); later ones by the steps
+/// projected reach with the flow walk (`flow_walk.rs`); later ones by the steps
 /// reached alone (a candidate that got that far has shown whether it stays on the map,
 /// and the walk predicts less well where the map is small: on THÖR1 a walk at 40 % of
 /// the horizon kept samples that then ended, 11 s FDE 2 % above constant velocity's).
@@ -263,8 +150,8 @@ mod tests {
     use crate::math::Simd;
     use crate::motion::State;
     use crate::predict::PRUNE_SCHEDULE;
-    use crate::predict::flow_memo::FLOW_SLOTS;
-    use crate::predict::lanes::{ANY, Extras};
+    use crate::predict::flow_memo::{FLOW_SLOTS, FlowMemo};
+    use crate::predict::lanes::{ANY, Extras, Lane};
     use crate::predict::options::pruned_share;
     use crate::predict::seeds::agent_key;
     use crate::predict::{Params, Point};
