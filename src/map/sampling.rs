@@ -459,7 +459,7 @@ impl CliffMap {
         use super::sampling_tables::{FollowBlock, follow_avx};
         use crate::math::fastmath::x8::per;
         use std::arch::x86_64::*;
-        use std::mem::{offset_of, size_of};
+        use std::mem::{MaybeUninit, offset_of, size_of};
         debug_assert!(self.follow_fits && self.lane.width == Some(width));
         // every location has the same number of blocks (one or two) where they fit
         let blocks = (self.follow_start[1] - self.follow_start[0]) as usize;
@@ -495,9 +495,10 @@ impl CliffMap {
             }))
         };
         // each slot's weight, the cosines of the heading with each slot's mean
-        // direction, and the largest
-        let mut weights = [[_mm256_setzero_ps(); V]; 8];
-        let mut cos = [[_mm256_setzero_ps(); V]; 8];
+        // direction, and the largest (the first `slots` written: arrays left
+        // uninitialised, as zeroing them cost more than a tenth of the draw)
+        let mut weights = [[MaybeUninit::<__m256>::uninit(); V]; 8];
+        let mut cos = [[MaybeUninit::<__m256>::uninit(); V]; 8];
         let mut most = [_mm256_set1_ps(-1.0); V];
         for b in 0..slots.div_ceil(4) {
             for v in 0..V {
@@ -507,36 +508,41 @@ impl CliffMap {
                     field4(b, sin_mu, v),
                 );
                 for i in 0..(slots - 4 * b).min(4) {
-                    weights[4 * b + i][v] = w[i];
-                    let c = &mut cos[4 * b + i][v];
-                    *c = _mm256_add_ps(_mm256_mul_ps(ux[v], cm[i]), _mm256_mul_ps(uy[v], sm[i]));
-                    most[v] = _mm256_max_ps(most[v], *c);
+                    weights[4 * b + i][v].write(w[i]);
+                    let c = _mm256_add_ps(_mm256_mul_ps(ux[v], cm[i]), _mm256_mul_ps(uy[v], sm[i]));
+                    cos[4 * b + i][v].write(c);
+                    most[v] = _mm256_max_ps(most[v], c);
                 }
             }
         }
-        // the weights' running sums (slots past the blocks: the total)
+        // the weights' running sums, in place of the cosines (slots past the blocks: the
+        // total)
         let k = _mm256_set1_ps(kappa);
         let mut total = [_mm256_setzero_ps(); V];
-        let mut cum = [[_mm256_setzero_ps(); V]; 8];
         for s in 0..slots {
             for v in 0..V {
-                // SAFETY: AVX2, as this function requires.
+                // SAFETY: slot s < slots was written above; AVX2, as this function
+                // requires.
                 let (w, e) = unsafe {
+                    let c = cos[s][v].assume_init();
                     (
-                        weights[s][v],
-                        follow_avx::exp_neg(_mm256_mul_ps(k, _mm256_sub_ps(cos[s][v], most[v]))),
+                        weights[s][v].assume_init(),
+                        follow_avx::exp_neg(_mm256_mul_ps(k, _mm256_sub_ps(c, most[v]))),
                     )
                 };
                 total[v] = _mm256_add_ps(total[v], _mm256_mul_ps(w, e));
-                cum[s][v] = total[v];
+                cos[s][v].write(total[v]);
             }
         }
+        let cum = &cos;
         // the component: how many running sums are at or below u times the total
         let x = per!(V, |v| _mm256_mul_ps(u[v], total[v]));
         let mut count = [_mm256_setzero_si256(); V];
         for c in cum.iter().take(slots) {
             for v in 0..V {
-                let below = _mm256_castps_si256(_mm256_cmp_ps::<_CMP_GE_OQ>(x[v], c[v]));
+                // SAFETY: the running sums of the first `slots` were written above.
+                let c = unsafe { c[v].assume_init() };
+                let below = _mm256_castps_si256(_mm256_cmp_ps::<_CMP_GE_OQ>(x[v], c));
                 count[v] = _mm256_sub_epi32(count[v], below);
             }
         }
