@@ -456,21 +456,13 @@ impl CliffMap {
         u: &[std::arch::x86_64::__m256; V],
         z: &[std::arch::x86_64::__m256; V],
     ) -> [std::arch::x86_64::__m256; V] {
-        use super::sampling_tables::{FollowBlock, follow_avx};
+        use super::sampling_tables::FollowBlock;
         use crate::math::fastmath::x8::per;
         use std::arch::x86_64::*;
-        use std::mem::{MaybeUninit, offset_of, size_of};
         debug_assert!(self.follow_fits && self.lane.width == Some(width));
         // every location has the same number of blocks (one or two) where they fit
         let blocks = (self.follow_start[1] - self.follow_start[0]) as usize;
-        let floats = size_of::<FollowBlock>() / 4;
-        let field = |offset: usize| offset / 4;
-        let (weight, cos_mu, sin_mu) = (
-            field(offset_of!(FollowBlock, weight)),
-            field(offset_of!(FollowBlock, cos_mu)),
-            field(offset_of!(FollowBlock, sin_mu)),
-        );
-        let base = self.follow.as_ptr() as *const f32;
+        let floats = std::mem::size_of::<FollowBlock>() / 4;
         let first = per!(V, |v| _mm256_mullo_epi32(
             loc[v],
             _mm256_set1_epi32((blocks * floats) as i32)
@@ -480,6 +472,63 @@ impl CliffMap {
         // raise the largest cosine nor add to the total, and their running sums are the
         // total. Only the first `slots` are read.
         let slots = width.min(4 * blocks);
+        let args = (width, first, loc, (ux, uy), kappa, (u, z));
+        // SAFETY: as this function requires; `slots` is at most eight (two blocks).
+        unsafe {
+            match slots {
+                1 => self.follow_draw8::<V, 1>(args),
+                2 => self.follow_draw8::<V, 2>(args),
+                3 => self.follow_draw8::<V, 3>(args),
+                4 => self.follow_draw8::<V, 4>(args),
+                5 => self.follow_draw8::<V, 5>(args),
+                6 => self.follow_draw8::<V, 6>(args),
+                7 => self.follow_draw8::<V, 7>(args),
+                _ => self.follow_draw8::<V, 8>(args),
+            }
+        }
+    }
+
+    /// [`lane_following8`](Self::lane_following8) of `S` slots (the map's widest
+    /// mixture, at most eight), each lane's blocks starting at float `first`: the
+    /// loops over slots unrolled and the slots' registers on the stack.
+    ///
+    /// # Safety
+    /// As [`lane_following8`](Self::lane_following8); `first` is each lane's location
+    /// times the floats of its blocks, and `S` at most the slots of its blocks.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    #[inline]
+    #[allow(clippy::type_complexity)] // the draw's inputs, eight lanes each
+    unsafe fn follow_draw8<const V: usize, const S: usize>(
+        &self,
+        (width, first, loc, (ux, uy), kappa, (u, z)): (
+            usize,
+            [std::arch::x86_64::__m256i; V],
+            &[std::arch::x86_64::__m256i; V],
+            (
+                &[std::arch::x86_64::__m256; V],
+                &[std::arch::x86_64::__m256; V],
+            ),
+            f32,
+            (
+                &[std::arch::x86_64::__m256; V],
+                &[std::arch::x86_64::__m256; V],
+            ),
+        ),
+    ) -> [std::arch::x86_64::__m256; V] {
+        use super::sampling_tables::{FollowBlock, follow_avx};
+        use crate::math::fastmath::x8::per;
+        use std::arch::x86_64::*;
+        use std::mem::{MaybeUninit, offset_of, size_of};
+        let floats = size_of::<FollowBlock>() / 4;
+        let field = |offset: usize| offset / 4;
+        let (weight, cos_mu, sin_mu) = (
+            field(offset_of!(FollowBlock, weight)),
+            field(offset_of!(FollowBlock, cos_mu)),
+            field(offset_of!(FollowBlock, sin_mu)),
+        );
+        let base = self.follow.as_ptr() as *const f32;
+        let slots = S;
         // each lane's first float, for the block loads
         let lane_first: [[i32; 8]; V] = std::array::from_fn(|v| {
             let mut a = [0i32; 8];
@@ -497,8 +546,8 @@ impl CliffMap {
         // each slot's weight, the cosines of the heading with each slot's mean
         // direction, and the largest (the first `slots` written: arrays left
         // uninitialised, as zeroing them cost more than a tenth of the draw)
-        let mut weights = [[MaybeUninit::<__m256>::uninit(); V]; 8];
-        let mut cos = [[MaybeUninit::<__m256>::uninit(); V]; 8];
+        let mut weights = [[MaybeUninit::<__m256>::uninit(); V]; S];
+        let mut cos = [[MaybeUninit::<__m256>::uninit(); V]; S];
         let mut most = [_mm256_set1_ps(-1.0); V];
         for b in 0..slots.div_ceil(4) {
             for v in 0..V {

@@ -462,8 +462,25 @@ fn eight_lanes_give_each_lanes_step_density_bits() {
     }
     let data = concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/data/");
     let atc = CliffMap::load(format!("{data}atc/cliffmap-20121024.csv")).unwrap();
-    // (ATC's map has locations of more than four components: their further blocks)
-    for (map, has_more) in [(CliffMap::demo(), false), (atc, true)] {
+    // (ATC's map has locations of five components: their second blocks; the wide map
+    // one of up to twelve, with one, two and three further blocks)
+    let wide = CliffMap::new(
+        (1..=12)
+            .map(|n| {
+                let comps = (0..n)
+                    .map(|j| Component {
+                        theta: 0.7 * j as f64 - 2.0,
+                        rho: 0.5 + 0.1 * j as f64,
+                        cov: [0.1 + 0.02 * j as f64, 0.01, 0.01, 0.2],
+                        weight: 1.0 / (j + 1) as f64,
+                    })
+                    .collect();
+                loc(2.0 * n as f64, 0.0, 1.0, comps)
+            })
+            .collect(),
+    )
+    .unwrap();
+    for (map, has_more) in [(CliffMap::demo(), false), (atc, true), (wide, true)] {
         let n = map.locations().len();
         let more: Vec<u32> = (0..n)
             .filter(|&i| map.locations()[i].components.len() > 4)
