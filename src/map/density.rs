@@ -140,7 +140,8 @@ impl StepDensities {
         rho: std::arch::x86_64::__m256,
     ) -> std::arch::x86_64::__m256 {
         use std::arch::x86_64::*;
-        use std::mem::offset_of;
+        use std::mem::{offset_of, size_of};
+        const { assert!(size_of::<Block>().is_power_of_two()) };
         let mut at = [0u32; 8];
         // SAFETY: eight lanes.
         unsafe { _mm256_storeu_si256(at.as_mut_ptr() as *mut __m256i, loc) };
@@ -149,7 +150,7 @@ impl StepDensities {
         // SAFETY: each lane's block is one of `first` (as this function requires).
         let field = |offset: usize| unsafe {
             super::block_loads::slots4(std::array::from_fn(|l| {
-                base.add(at[l] as usize * std::mem::size_of::<Block>() + offset) as *const f32
+                base.add(at[l] as usize * size_of::<Block>() + offset) as *const f32
             }))
         };
         let (mu, rho_c, slope) = (
@@ -180,23 +181,37 @@ impl StepDensities {
             _mm256_max_ps(terms[0], terms[2]),
             _mm256_max_ps(terms[1], terms[3]),
         );
+        // the lanes whose locations have further blocks (their `more` ranges gathered:
+        // most have none, and then no lane is visited)
+        let more = |i: usize| {
+            let index = _mm256_add_epi32(
+                _mm256_slli_epi32::<{ (size_of::<Block>() / 4).trailing_zeros() as i32 }>(loc),
+                _mm256_set1_epi32((offset_of!(Block, more) / 4 + i) as i32),
+            );
+            // SAFETY: each lane's index is a word of its location's block.
+            unsafe { _mm256_i32gather_epi32::<4>(base as *const i32, index) }
+        };
+        let further = _mm256_cmpgt_epi32(more(1), more(0));
+        let mut lanes = _mm256_movemask_ps(_mm256_castsi256_ps(further)) as u32;
+        if lanes == 0 {
+            return most;
+        }
         let mut out = [0.0f32; 8];
-        // SAFETY: eight lanes.
-        unsafe { _mm256_storeu_ps(out.as_mut_ptr(), most) };
         let (mut th, mut r) = ([0.0f32; 8], [0.0f32; 8]);
         // SAFETY: eight lanes.
         unsafe {
+            _mm256_storeu_ps(out.as_mut_ptr(), most);
             _mm256_storeu_ps(th.as_mut_ptr(), theta);
             _mm256_storeu_ps(r.as_mut_ptr(), rho);
         }
-        for l in 0..8 {
+        while lanes != 0 {
+            let l = lanes.trailing_zeros() as usize;
+            lanes &= lanes - 1;
             let b = &self.first[at[l] as usize];
-            if b.more[0] != b.more[1] {
-                let (theta, rho) = (F32x4::splat(th[l]), F32x4::splat(r[l]));
-                out[l] = self.more[b.more[0] as usize..b.more[1] as usize]
-                    .iter()
-                    .fold(out[l], |m, blk| m.max(blk.terms(theta, rho).max_lane()));
-            }
+            let (theta, rho) = (F32x4::splat(th[l]), F32x4::splat(r[l]));
+            out[l] = self.more[b.more[0] as usize..b.more[1] as usize]
+                .iter()
+                .fold(out[l], |m, blk| m.max(blk.terms(theta, rho).max_lane()));
         }
         // SAFETY: eight lanes.
         unsafe { _mm256_loadu_ps(out.as_ptr()) }
