@@ -35,6 +35,8 @@ pub struct CliffMap {
     /// Components for [`CliffMap::direction_following`] ([`follow_blocks`]).
     pub(super) follow_start: Vec<u32>,
     pub(super) follow: Vec<FollowBlock>,
+    /// Each location's number of components (its follow slots that are not padding).
+    pub(super) follow_count: Vec<u32>,
     /// Whether every location's follow components fit two blocks
     /// ([`CliffMap::follow_weights_fit`]), found once when the map is made.
     pub(super) follow_fits: bool,
@@ -65,6 +67,7 @@ impl Clone for CliffMap {
             speed: self.speed.clone(),
             follow_start: self.follow_start.clone(),
             follow: self.follow.clone(),
+            follow_count: self.follow_count.clone(),
             follow_fits: self.follow_fits,
             density_start: self.density_start.clone(),
             density: self.density.clone(),
@@ -182,6 +185,10 @@ impl CliffMap {
         let (_, speed) = pad_with(comp_start.clone(), speed, |last| last);
         let (follow_start, follow) = follow_blocks(&locations);
         let follow_fits = follow_start.windows(2).all(|w| w[1] - w[0] <= 2);
+        let follow_count = locations
+            .iter()
+            .map(|l| l.components.len() as u32)
+            .collect();
         let step_density = density::StepDensities::new(&density_start, &density);
         let (comp_start, table) = pad_components(comp_start, table);
         let lane = LaneTables::new(&comp_start, &table);
@@ -196,6 +203,7 @@ impl CliffMap {
             speed,
             follow_start,
             follow,
+            follow_count,
             follow_fits,
             density_start,
             density,

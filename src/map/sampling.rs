@@ -467,11 +467,13 @@ impl CliffMap {
             loc[v],
             _mm256_set1_epi32((blocks * floats) as i32)
         ));
-        // Slots past the widest mixture (the lane tables' width) are padding at every
-        // location: weight 0 and the location's last direction again, so they neither
-        // raise the largest cosine nor add to the total, and their running sums are the
-        // total. Only the first `slots` are read.
-        let slots = width.min(4 * blocks);
+        // Slots past a location's components are padding: weight 0 and the location's
+        // last direction again, so they neither raise the largest cosine nor add to the
+        // total, and their running sums are the total. Only the slots of the lanes'
+        // largest mixture are read (on ATC's map, of five slots, most locations hold
+        // one or two components).
+        // SAFETY: every lane of `loc` is a location (as this function requires).
+        let slots = unsafe { self.most_components8(loc) }.clamp(1, width.min(4 * blocks));
         let args = (width, first, loc, (ux, uy), kappa, (u, z));
         // SAFETY: as this function requires; `slots` is at most eight (two blocks).
         unsafe {
@@ -488,9 +490,37 @@ impl CliffMap {
         }
     }
 
-    /// [`lane_following8`](Self::lane_following8) of `S` slots (the map's widest
-    /// mixture, at most eight), each lane's blocks starting at float `first`: the
-    /// loops over slots unrolled and the slots' registers on the stack.
+    /// The most components any lane of `loc` (`V` registers of eight locations) holds.
+    ///
+    /// # Safety
+    /// The processor must have AVX2; every lane of `loc` must be a location of the map.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    #[inline]
+    unsafe fn most_components8<const V: usize>(
+        &self,
+        loc: &[std::arch::x86_64::__m256i; V],
+    ) -> usize {
+        use std::arch::x86_64::*;
+        let counts = self.follow_count.as_ptr() as *const i32;
+        let mut most = _mm256_setzero_si256();
+        for l in loc {
+            // SAFETY: `follow_count` holds an entry per location.
+            let n = unsafe { _mm256_i32gather_epi32::<4>(counts, *l) };
+            most = _mm256_max_epi32(most, n);
+        }
+        let m = _mm_max_epi32(
+            _mm256_castsi256_si128(most),
+            _mm256_extracti128_si256::<1>(most),
+        );
+        let m = _mm_max_epi32(m, _mm_shuffle_epi32::<0b01_00_11_10>(m));
+        let m = _mm_max_epi32(m, _mm_shuffle_epi32::<0b10_11_00_01>(m));
+        _mm_cvtsi128_si32(m) as usize
+    }
+
+    /// [`lane_following8`](Self::lane_following8) of `S` slots (at most eight, the
+    /// most components of the lanes' locations), each lane's blocks starting at float
+    /// `first`: the loops over slots unrolled and the slots' registers on the stack.
     ///
     /// # Safety
     /// As [`lane_following8`](Self::lane_following8); `first` is each lane's location
