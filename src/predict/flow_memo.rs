@@ -44,13 +44,13 @@ impl FlowMemo {
         }
     }
 
-    #[inline]
+    #[inline(always)]
     fn slot(key: u32, probe: usize) -> usize {
         ((key.wrapping_add(1).wrapping_mul(0x9e37_79b1) >> 22) as usize + probe) & (FLOW_SLOTS - 1)
     }
 
     /// The steps state `key` is worth, if a walk of this checkpoint passed it.
-    #[inline]
+    #[inline(always)]
     pub(super) fn get(&self, key: u32) -> Option<u32> {
         for probe in 0..FLOW_PROBES {
             let [k, v, c] = self.slots[Self::slot(key, probe)];
@@ -65,7 +65,7 @@ impl FlowMemo {
     }
 
     /// Remember that state `key` is worth `steps` (unless its slots are taken).
-    #[inline]
+    #[inline(always)]
     pub(super) fn insert(&mut self, key: u32, steps: u32) {
         for probe in 0..FLOW_PROBES {
             let i = Self::slot(key, probe);
