@@ -3,12 +3,6 @@
 //! walker follows the map's likeliest flow without the draws' noise, and the steps it
 //! stays near the map are what the candidate is projected to gain. The walks of one
 //! checkpoint share their ends ([`FlowMemo`]).
-//!
-//! A walk's first step depends on its candidate alone (the memo only decides where a
-//! walk stops), so the first steps of the next few walks are taken together before
-//! they are walked one after the other: independent chains of arithmetic and lookups
-//! that the processor overlaps, where one walk at a time waits on each. Most walks end
-//! after that step, at a state an earlier walk passed.
 
 use glam::DVec2;
 
