@@ -72,7 +72,9 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
     /// 24) from the lanes `st`, which it updates, as the generic loop's AVX2 copy does
     /// (`roll_body::<N, ANY, SCORES, Fused>`): the positions of the lanes that go on
     /// written to `tracks` (`steps` per sample), their lengths to `lens`, with `SCORES`
-    /// their steps' log-densities added to their scores.
+    /// their steps' log-densities added to their scores. (Unlike the generic loop it
+    /// also writes the positions of the samples that have stopped, past their lengths:
+    /// ending a sample makes those NaN.)
     ///
     /// # Safety
     /// The processor must have AVX2 and FMA, [`options_avx2_fits`](Self::options_avx2_fits)
@@ -180,8 +182,6 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
             }
         });
         let mut step_score = [0.0f32; PACK];
-        let mut xs = [0.0f32; PACK];
-        let mut ys = [0.0f32; PACK];
         for j in from..to {
             // Trust: the map's share of the heading kernel, and the speed, at this step.
             let gain = if trusting {
@@ -239,6 +239,10 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
             } else {
                 (0.0, 0.0, 0.0)
             };
+            // Every sample's row takes its position at this step, whether or not the
+            // lookup below lets it go on: a sample that stops here (or stopped before)
+            // has its positions from its length on made NaN when it is ended
+            // (`finish_sample`), so writing them costs no branch per lane.
             for v in 0..V {
                 let out = |p: [__m256d; 2], cv: f64| {
                     let p = if blend {
@@ -249,10 +253,31 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
                     };
                     _mm256_set_m128(_mm256_cvtpd_ps(p[1]), _mm256_cvtpd_ps(p[0]))
                 };
-                // SAFETY: the arrays hold 8 V lanes.
-                unsafe {
-                    _mm256_storeu_ps(xs.as_mut_ptr().add(8 * v), out(px[v], cv_x));
-                    _mm256_storeu_ps(ys.as_mut_ptr().add(8 * v), out(py[v], cv_y));
+                let (x, y) = (out(px[v], cv_x), out(py[v], cv_y));
+                // (x, y) of lanes 0 1 | 4 5 and 2 3 | 6 7, a position to 64 bits
+                let (lo, hi) = (
+                    _mm256_castps_si256(_mm256_unpacklo_ps(x, y)),
+                    _mm256_castps_si256(_mm256_unpackhi_ps(x, y)),
+                );
+                let pairs = [
+                    _mm256_castsi256_si128(lo),
+                    _mm256_castsi256_si128(hi),
+                    _mm256_extracti128_si256::<1>(lo),
+                    _mm256_extracti128_si256::<1>(hi),
+                ];
+                for (q, pair) in pairs.into_iter().enumerate() {
+                    let l = 8 * v + 2 * q;
+                    let (first, second) = (_mm_cvtsi128_si64(pair), _mm_extract_epi64::<1>(pair));
+                    // SAFETY: lanes below `n` write their sample's row, which holds
+                    // `steps` positions, and j < to <= steps (8 bytes, unaligned).
+                    unsafe {
+                        if l < n {
+                            std::ptr::write_unaligned(rows[l].add(j) as *mut i64, first);
+                        }
+                        if l + 1 < n {
+                            std::ptr::write_unaligned(rows[l + 1].add(j) as *mut i64, second);
+                        }
+                    }
                 }
             }
             // Finish the lookups; the lanes that found a location go on.
@@ -267,14 +292,6 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
                 now_bits |= (_mm256_movemask_ps(_mm256_castsi256_ps(now)) as u32) << (8 * v);
             }
             alive_bits = now_bits;
-            let mut bits = now_bits;
-            while bits != 0 {
-                let l = bits.trailing_zeros() as usize;
-                bits &= bits - 1;
-                // SAFETY: lane l < n writes its sample's row, which holds `steps`
-                // positions, and j < to <= steps.
-                unsafe { *rows[l].add(j) = [xs[l], ys[l]] };
-            }
             if now_bits == 0 {
                 break;
             }
