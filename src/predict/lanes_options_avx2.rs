@@ -195,8 +195,13 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
             }
             // Draw: each lane's two words, the component by the follow weights of its
             // heading, and its direction.
-            let u: [__m256; V] = std::array::from_fn(|v| unit8(next8(&mut rng[v])));
-            let z: [__m256; V] = std::array::from_fn(|v| normal8(next8(&mut rng[v])));
+            // (in a loop rather than `from_fn`, whose closures were not inlined)
+            let mut u = [_mm256_setzero_ps(); V];
+            let mut z = [_mm256_setzero_ps(); V];
+            for v in 0..V {
+                u[v] = unit8(next8(&mut rng[v]));
+                z[v] = normal8(next8(&mut rng[v]));
+            }
             // SAFETY: AVX2 and FMA; the follow weights fit, `width` is the map's, and
             // every lane's location is one of the map's (the start's, one the lookup
             // found, or lane 0's for the padding).
