@@ -235,8 +235,9 @@ fn four_uniforms_make_a_standard_normal() {
 fn direction_following_draws_the_von_mises_posterior() {
     use rand::SeedableRng;
     // narrow components 0.5 rad apart, unequal weights; 6 of them (two blocks of
-    // four, padded), 11 (wider than the padding: three blocks), and a map where
-    // one location has 11 and the other 1 (uneven block counts)
+    // four, padded), 11 (wider than the padding: three blocks), a map where one
+    // location has 11 and the other 1 (uneven block counts), and one where a location of
+    // 3 has a second block of padding only (the other holds 6)
     let mixture = |n: usize| -> Vec<Component> {
         (0..n)
             .map(|j| {
@@ -250,6 +251,7 @@ fn direction_following_draws_the_von_mises_posterior() {
         (6, None, 3.0, 1.2),
         (11, None, 2.0, 4.0),
         (11, Some(1), 5.0, 0.3),
+        (3, Some(6), 3.0, 1.0),
         // far from every component with the largest follow: the terms underflow
         // unless scaled, yet the choice still favours the nearest direction
         (3, None, 100.0, 4.5),
