@@ -104,15 +104,14 @@ impl CliffMap {
     pub fn follow_weights(&self, index: usize, ux: f32, uy: f32, kappa: f32) -> FollowWeights {
         let s = self.follow_start[index] as usize;
         let e = (self.follow_start[index + 1] as usize).min(s + 2);
-        // (every location of a map has the same number of blocks: a predictable branch;
-        // a second block that holds only padding, weight 0 and the first's last direction
-        // again, changes no bit of the running sums, so it is left out)
+        // (every location of a map has the same number of blocks; a second block that
+        // holds only padding, weight 0 and the first's last direction again, changes no
+        // bit of the running sums, so a location of at most four components leaves it out)
         match &self.follow[s..e] {
-            [a, _] if self.follow_count[index] <= 4 => {
+            [a] | [a, _] if self.follow_count[index] <= 4 => {
                 FollowWeights(follow_cumulative_fixed(&[*a], ux, uy, kappa))
             }
             [a, b] => FollowWeights(follow_cumulative_fixed(&[*a, *b], ux, uy, kappa)),
-            [a] => FollowWeights(follow_cumulative_fixed(&[*a], ux, uy, kappa)),
             blocks => FollowWeights(follow_cumulative::<8>(blocks, ux, uy, kappa)),
         }
     }
