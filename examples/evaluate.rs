@@ -19,6 +19,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let map = CliffMap::load(data.join("cliffmap.csv"))?;
     let tracks = read_tracks(&data.join("exp-1-run-2.csv"), Format::Thor)?;
     let cfg = EvalConfig {
+        motion_model: None,
         // the reference protocol: 3.2 s observed, 12 s predicted at 0.4 s
         settings: Settings::default(),
         params: Params {

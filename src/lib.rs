@@ -28,6 +28,7 @@
 
 mod bounded_read;
 pub mod eval;
+mod framed;
 pub mod map;
 pub mod math;
 pub mod motion;

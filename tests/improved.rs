@@ -39,6 +39,7 @@ fn improved_beats_the_paper_on_held_out_atc_people() {
     assert!(map.speed_prior().is_some());
     let dev = read_many(&atc("dev", &[9, 11, 13, 15, 17, 19], "test"), Format::Atc).unwrap();
     let cfg = EvalConfig {
+        motion_model: None,
         settings: Settings {
             protocol: Protocol::Seconds,
             obs: 3.2,

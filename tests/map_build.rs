@@ -305,6 +305,7 @@ fn predictions_with_the_built_map_are_as_good_as_with_the_shipped_map() {
     use cliff::predict::{Method, Params};
     let tracks = read_many(&atc_files("dev", &DEV_HOURS), Format::Atc).unwrap();
     let cfg = EvalConfig {
+        motion_model: None,
         settings: Settings {
             protocol: Protocol::Seconds,
             obs: 3.2,

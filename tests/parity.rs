@@ -63,6 +63,7 @@ fn run(dataset: &str, map: &str, tracks: &str, seeds: usize) -> Vec<SummaryRow> 
     let map = CliffMap::load(data(map)).unwrap();
     let tracks = read_tracks(&data(tracks), Format::Thor).unwrap();
     let cfg = EvalConfig {
+        motion_model: None,
         settings: Settings::default(),
         params: Params {
             k: 20,
@@ -223,6 +224,7 @@ fn atc_dev_at_one_hertz_matches_the_reference() {
     files.sort();
     let tracks = read_many(&files, Format::Atc).unwrap();
     let cfg = EvalConfig {
+        motion_model: None,
         settings: Settings {
             obs: 8.0,
             dt: 1.0,

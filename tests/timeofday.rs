@@ -262,7 +262,9 @@ fn atc(dir: &str, hours: &[u32]) -> Vec<PathBuf> {
 }
 
 fn eval_config() -> EvalConfig {
+    motion_model: None,
     EvalConfig {
+        motion_model: None,
         settings: Settings {
             protocol: Protocol::Seconds,
             obs: 3.2,

@@ -164,6 +164,7 @@ pub fn evaluate(
         e => PyValueError::new_err(e.to_string()),
     })?;
     let cfg = EvalConfig {
+        motion_model: None,
         settings: Settings {
             protocol,
             obs,

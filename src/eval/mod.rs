@@ -14,6 +14,7 @@
 //!     seeds: 20,
 //!     methods: vec![Method::Cliff, Method::Cvm],
 //!     options: Default::default(),   // the paper's method
+//!     motion_model: None,            // the built-in motion model (for `motion`)
 //! };
 //! let report = evaluate(&map, &tracks, &cfg, &|| {})?;
 //! print!("{}", cliff::eval::summary_table(&report.summary, &[2.0, 4.0, 6.0, 8.0, 10.0, 12.0]));

@@ -7,13 +7,15 @@
 use std::fmt::Write as _;
 use std::io;
 use std::path::Path;
+use std::sync::Arc;
 
 use rayon::prelude::*;
 
 use super::metrics::{Scratch, StepErrors, person_errors};
 use super::protocol::{Case, Settings, prepare_all};
 use crate::map::{CliffMap, MapAt};
-use crate::predict::{Method, Options, Params, PredictError, TrajectoryBatch, predict_with};
+use crate::motion::{History, MotionModel};
+use crate::predict::{Method, Options, Params, PredictError, Rollout, TrajectoryBatch};
 use crate::tracks::Track;
 
 /// What to evaluate.
@@ -31,6 +33,8 @@ pub struct EvalConfig {
     /// Options beyond the paper's method (all off: the paper's). Scores are always
     /// computed, for the top-1 errors (they leave the samples as they are).
     pub options: Options,
+    /// The motion model of [`Method::Motion`] (none: the built-in one).
+    pub motion_model: Option<Arc<MotionModel>>,
 }
 
 /// One row of the summary: a method at a horizon.
@@ -40,7 +44,7 @@ pub struct SummaryRow {
     pub method: Method,
     /// Horizon (s).
     pub horizon: f64,
-    /// People with a value at this horizon (mean over seeds).
+    /// People counted at this horizon (mean over seeds; see [`SummaryRow::reach`]).
     pub people: f64,
     /// Mean ADE over people (mean over seeds).
     pub ade: f64,
@@ -63,7 +67,10 @@ pub struct SummaryRow {
     /// Mean top-1 FDE.
     pub top1_fde: f64,
     /// Share of the people whose ground truth lasts this long that a prediction (one
-    /// seed's samples) reaches: `people` over those people, so a mean over seeds.
+    /// seed's samples) reaches, a mean over seeds. (With
+    /// [`Counting::Reached`](super::metrics::Counting) `people` counts those people
+    /// alone; with [`Counting::Everyone`](super::metrics::Counting) `people` counts them
+    /// all.)
     pub reach: f64,
     /// Seeds run.
     pub seeds: usize,
@@ -127,9 +134,10 @@ struct Worker {
 }
 
 fn seeds_for(method: Method, seeds: usize) -> usize {
-    match method {
-        Method::Cvm => 1,
-        Method::Cliff | Method::Improved => seeds.max(1),
+    if method.is_deterministic() {
+        1
+    } else {
+        seeds.max(1)
     }
 }
 
@@ -140,6 +148,15 @@ fn run_case(
     w: &mut Worker,
 ) -> Result<PersonResult, PredictError> {
     let dt = cfg.settings.dt;
+    // the observed rows up to the start row, for the methods that read the history
+    let start_row = crate::tracks::Row {
+        t: case.start.time,
+        position: case.start.position,
+        speed: case.start.speed,
+        angle: case.start.heading,
+    };
+    let rows: Vec<_> = case.observed.iter().copied().chain([start_row]).collect();
+    let history = History::from_rows(&rows).unwrap_or_else(|_| History::from_state(&case.start));
     let mut res = Vec::with_capacity(cfg.methods.len());
     for &method in &cfg.methods {
         let mut per_seed = Vec::new();
@@ -150,7 +167,7 @@ fn run_case(
                 horizon: case.steps as f64 * dt,
                 seed: person_seed(seed as u64, case.seed_key()),
                 // constant velocity draws nothing: one sample stands for all k
-                k: if method == Method::Cvm {
+                k: if method.is_deterministic() {
                     1
                 } else {
                     cfg.params.k
@@ -161,11 +178,14 @@ fn run_case(
                 scores: true,
                 ..cfg.options
             };
-            predict_with(
+            let mut rollout = Rollout::new(&params)?.with_options(options)?;
+            if let Some(model) = &cfg.motion_model {
+                rollout = rollout.with_motion_model(model.clone());
+            }
+            rollout.predict_batch(
                 map,
                 std::slice::from_ref(&case.start),
-                &params,
-                &options,
+                Some(std::slice::from_ref(&history)),
                 &mut w.batch,
             )?;
             let batch = &w.batch;
@@ -173,6 +193,7 @@ fn run_case(
             person_errors(
                 case,
                 dt,
+                cfg.settings.counting,
                 (0..params.k).map(|s| batch.sample(0, s)),
                 batch.scores(),
                 &mut w.scratch,
@@ -226,8 +247,9 @@ pub fn evaluate<M: MapAt + Sync + ?Sized>(
     for (mi, &method) in cfg.methods.iter().enumerate() {
         let n_seeds = seeds_for(method, cfg.seeds);
         for j in 0..max_steps {
-            // per seed: (people, sums of ade, fde, min_ade, min_fde, top1_ade, top1_fde)
-            let mut per_seed = vec![[0.0f64; 7]; n_seeds];
+            // per seed: (people, sums of ade, fde, min_ade, min_fde, top1_ade, top1_fde,
+            // people a sample reached)
+            let mut per_seed = vec![[0.0f64; 8]; n_seeds];
             let eligible = cases.iter().filter(|c| c.steps > j).count();
             for r in &results {
                 for (s, acc) in per_seed.iter_mut().enumerate() {
@@ -239,10 +261,11 @@ pub fn evaluate<M: MapAt + Sync + ?Sized>(
                         acc[4] += e.min_fde;
                         acc[5] += e.top1_ade;
                         acc[6] += e.top1_fde;
+                        acc[7] += f64::from(u8::from(e.reaching > 0));
                     }
                 }
             }
-            let means: Vec<[f64; 7]> = per_seed
+            let means: Vec<[f64; 8]> = per_seed
                 .iter()
                 .filter(|a| a[0] > 0.0)
                 .map(|a| {
@@ -256,6 +279,7 @@ pub fn evaluate<M: MapAt + Sync + ?Sized>(
             }
             let stat = |i: usize| mean_sd(means.iter().map(|m| m[i]));
             let people = per_seed.iter().map(|a| a[0]).sum::<f64>() / n_seeds as f64;
+            let reached = per_seed.iter().map(|a| a[7]).sum::<f64>() / n_seeds as f64;
             let (ade, ade_sd) = stat(1);
             let (fde, fde_sd) = stat(2);
             let (min_ade, min_ade_sd) = stat(3);
@@ -277,7 +301,7 @@ pub fn evaluate<M: MapAt + Sync + ?Sized>(
                 top1_ade,
                 top1_fde,
                 reach: if eligible > 0 {
-                    people / eligible as f64
+                    reached / eligible as f64
                 } else {
                     0.0
                 },

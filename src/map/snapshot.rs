@@ -22,6 +22,7 @@ use serde::{Deserialize, Serialize};
 use super::timeofday::{MapSet, SetParts, Smoothing, slice_label};
 use super::{CliffMap, Location, MAX_MAP_FILE_BYTES, MapError};
 use crate::bounded_read::read_at_most;
+use crate::framed::{decode_all, frame, unframe};
 use crate::motion::SpeedPrior;
 
 /// The first eight bytes of every snapshot.
@@ -31,7 +32,6 @@ pub const SNAPSHOT_VERSION: u32 = 1;
 /// The format version of a snapshot holding a time-of-day [`MapSet`] (what
 /// [`MapSet::save`] writes for a set with slices).
 pub const SET_SNAPSHOT_VERSION: u32 = 2;
-const HEADER: usize = 8 + 4 + 8 + 4;
 
 #[derive(Serialize, Deserialize)]
 struct Payload {
@@ -67,16 +67,6 @@ struct SetPayload {
     speed_prior: Option<SpeedPrior>,
 }
 
-fn with_header(version: u32, body: &[u8]) -> Vec<u8> {
-    let mut out = Vec::with_capacity(HEADER + body.len());
-    out.extend_from_slice(&SNAPSHOT_MAGIC);
-    out.extend_from_slice(&version.to_le_bytes());
-    out.extend_from_slice(&(body.len() as u64).to_le_bytes());
-    out.extend_from_slice(&crc32fast::hash(body).to_le_bytes());
-    out.extend_from_slice(body);
-    out
-}
-
 /// Encode a map as snapshot bytes (version 1; version 2 without slices for a map with
 /// a speed prior).
 pub fn encode(map: &CliffMap) -> Vec<u8> {
@@ -85,7 +75,7 @@ pub fn encode(map: &CliffMap) -> Vec<u8> {
     }
     let body = postcard::to_stdvec(&Payload::of(map))
         .expect("serialising plain data to memory cannot fail");
-    with_header(SNAPSHOT_VERSION, &body)
+    frame(&SNAPSHOT_MAGIC, SNAPSHOT_VERSION, &body)
 }
 
 /// Encode a map set as snapshot bytes: version 2, or version 1 for a set without slices.
@@ -111,7 +101,7 @@ fn encode_v2(set: &MapSet) -> Vec<u8> {
         speed_prior: set.all_day().speed_prior(),
     };
     let body = postcard::to_stdvec(&payload).expect("serialising plain data to memory cannot fail");
-    with_header(SET_SNAPSHOT_VERSION, &body)
+    frame(&SNAPSHOT_MAGIC, SET_SNAPSHOT_VERSION, &body)
 }
 
 /// What a snapshot holds.
@@ -209,53 +199,19 @@ fn decode_any(bytes: &[u8], file: &str) -> Result<Decoded, MapError> {
         file: file.to_string(),
         message,
     };
-    if bytes.len() < HEADER {
-        return Err(bad(format!(
-            "{} bytes is shorter than the {HEADER}-byte header",
-            bytes.len()
-        )));
-    }
-    if bytes[..8] != SNAPSHOT_MAGIC {
-        return Err(bad("wrong magic number (not a cliff snapshot)".into()));
-    }
-    let version = u32::from_le_bytes(bytes[8..12].try_into().unwrap());
-    if version != SNAPSHOT_VERSION && version != SET_SNAPSHOT_VERSION {
-        return Err(bad(format!(
-            "format version {version}, this build reads versions {SNAPSHOT_VERSION} and {SET_SNAPSHOT_VERSION}"
-        )));
-    }
-    let len = u64::from_le_bytes(bytes[12..20].try_into().unwrap());
-    let crc = u32::from_le_bytes(bytes[20..24].try_into().unwrap());
-    let body = &bytes[HEADER..];
-    if body.len() as u64 != len {
-        return Err(bad(format!(
-            "payload is {} bytes, header says {len} (truncated or padded)",
-            body.len()
-        )));
-    }
-    if crc32fast::hash(body) != crc {
-        return Err(bad("checksum mismatch (corrupted)".into()));
-    }
-    let trailing = |rest: &[u8]| {
-        if rest.is_empty() {
-            Ok(())
-        } else {
-            Err(bad(format!(
-                "{} trailing bytes after the payload",
-                rest.len()
-            )))
-        }
-    };
+    let (version, body) = unframe(
+        bytes,
+        &SNAPSHOT_MAGIC,
+        "a cliff snapshot",
+        &[SNAPSHOT_VERSION, SET_SNAPSHOT_VERSION],
+    )
+    .map_err(bad)?;
     if version == SNAPSHOT_VERSION {
-        let (payload, rest): (Payload, &[u8]) =
-            postcard::take_from_bytes(body).map_err(|e| bad(format!("payload: {e}")))?;
-        trailing(rest)?;
-        return Ok(Decoded::Map(payload));
+        return Ok(Decoded::Map(decode_all(body, "payload").map_err(bad)?));
     }
-    let (payload, rest): (SetPayload, &[u8]) =
-        postcard::take_from_bytes(body).map_err(|e| bad(format!("map set payload: {e}")))?;
-    trailing(rest)?;
-    Ok(Decoded::Set(payload))
+    Ok(Decoded::Set(
+        decode_all(body, "map set payload").map_err(bad)?,
+    ))
 }
 
 /// Read a snapshot file (at most [`MAX_MAP_FILE_BYTES`]; see [`read_snapshot_bytes`]).
@@ -328,7 +284,11 @@ mod tests {
             }),
         })
         .unwrap();
-        let e = decode(&with_header(SET_SNAPSHOT_VERSION, &body), "bad.cliff").unwrap_err();
+        let e = decode(
+            &frame(&SNAPSHOT_MAGIC, SET_SNAPSHOT_VERSION, &body),
+            "bad.cliff",
+        )
+        .unwrap_err();
         assert!(
             e.to_string().contains("bad.cliff") && e.to_string().contains("speed prior"),
             "{e}"
@@ -535,8 +495,13 @@ mod tests {
             observations: Vec::new(),
             speed_prior: None,
         };
-        let wrap2 =
-            |p: &SetPayload| with_header(SET_SNAPSHOT_VERSION, &postcard::to_stdvec(p).unwrap());
+        let wrap2 = |p: &SetPayload| {
+            frame(
+                &SNAPSHOT_MAGIC,
+                SET_SNAPSHOT_VERSION,
+                &postcard::to_stdvec(p).unwrap(),
+            )
+        };
         let e = decode_set(&wrap2(&payload), "s").unwrap_err().to_string();
         assert!(
             e.contains("23 slices, a slice length of 3600 s makes 24"),
@@ -575,7 +540,7 @@ mod tests {
         payload.clock_offset = 0.0;
         let mut body = postcard::to_stdvec(&payload).unwrap();
         body.push(0);
-        let e = decode_set(&with_header(SET_SNAPSHOT_VERSION, &body), "s")
+        let e = decode_set(&frame(&SNAPSHOT_MAGIC, SET_SNAPSHOT_VERSION, &body), "s")
             .unwrap_err()
             .to_string();
         assert!(e.contains("1 trailing bytes"), "{e}");

@@ -1,4 +1,14 @@
-//! Motion state and the observed velocity of a tracked person.
+//! Motion state, the observed velocity of a tracked person, and the learned motion model.
+//!
+//! | file | what it holds |
+//! |---|---|
+//! | `mod.rs` | [`State`], the observed velocity from a history (below) |
+//! | [`speed_prior`] | [`SpeedPrior`]: how the speed ahead regresses to the typical one |
+//! | [`history`] | [`History`]: a person's recent path on the motion model's grid |
+//! | [`model`] | [`MotionModel`] and its [`Forecast`]: how people walk on, learned from tracks |
+//! | [`model_fit`] | [`fit_motion_model`], [`motion_model_errors`]: fitting and scoring a model |
+//! | [`model_file`] | `.motion` files ([`MotionModel::load`], [`MotionModel::save`]) |
+//! | `model_builtin` | the built-in model ([`MotionModel::builtin`]) |
 //!
 //! A prediction starts from a [`State`]: position, speed and heading at a time. The
 //! observed velocity comes from the recent history with Gaussian weights
@@ -24,7 +34,20 @@ use glam::DVec2;
 
 use crate::math::wrap_2pi;
 
+pub mod history;
+pub mod model;
+mod model_builtin;
+pub mod model_file;
+pub mod model_fit;
 pub mod speed_prior;
+pub use history::{HISTORY_POINTS, History, MODEL_DT};
+pub use model::{FEATURES, Forecast, MAX_MODEL_STEPS, ModelInfo, ModelValueError, MotionModel};
+pub use model_builtin::BUILTIN_MOTION_BYTES;
+pub use model_file::{MAX_MOTION_FILE_BYTES, MOTION_MAGIC, MOTION_VERSION, MotionError};
+pub use model_fit::{
+    FitError, HorizonErrors, MotionFit, fit_motion_model, fit_motion_model_sources,
+    motion_model_errors,
+};
 pub use speed_prior::{MAX_PRIOR_SPEED, SpeedPrior};
 
 /// The reference's velocity kernel width.

@@ -5,17 +5,23 @@
 use super::candidates::{Candidates, rank};
 use super::cvm::{cvm_score, roll_cvm};
 use super::lanes::{ANY, Extras, Lane, Lanes, PAPER, SPEED};
+use super::motion::{last_displacement, motion_score, roll_motion, sample_normal};
 use super::seeds::agent_key;
 use super::{BatchMut, Method, Params, Point};
 use crate::map::{CliffMap, NeighbourTable};
 use crate::math::Simd;
-use crate::motion::State;
+use crate::motion::{History, MotionModel, State};
 use glam::DVec2;
 
 /// One call's inputs and outputs, for the flavour dispatch.
 pub(super) struct Call<'a, 'b> {
     pub(super) map: &'a CliffMap,
     pub(super) agents: &'a [State],
+    /// The agents' observed histories, when the caller has them ([`Method::Motion`] and
+    /// [`Method::CvmLast`] read them).
+    pub(super) histories: Option<&'a [History]>,
+    /// The model of [`Method::Motion`].
+    pub(super) motion: &'a MotionModel,
     pub(super) params: &'a Params,
     pub(super) extras: &'a Extras,
     /// The call's seed, and the index in the call of `agents[0]` ([`agent_key`]).
@@ -30,8 +36,10 @@ impl Call<'_, '_> {
     /// Predict with the map lookup `near` (monomorphised per lookup kind so the hot loop
     /// inlines it), which answers from `table` if it is given.
     pub(super) fn run(self, table: Option<&NeighbourTable>, near: impl Fn(DVec2) -> Option<usize>) {
-        if self.params.method == Method::Cvm {
-            return self.cvm(near);
+        match self.params.method {
+            Method::Cvm | Method::CvmLast => return self.cvm(near),
+            Method::Motion => return self.motion(),
+            Method::Cliff | Method::Improved => {}
         }
         let e = self.extras;
         let motion = if e.coast_steps > 0 || e.follow > 0.0 || e.trust > 0.0 || e.blend > 0.0 {
@@ -57,6 +65,10 @@ impl Call<'_, '_> {
         let steps = self.params.steps();
         let k = self.params.k;
         for (a, state) in self.agents.iter().enumerate() {
+            let state = &match (self.params.method, self.histories) {
+                (Method::CvmLast, Some(h)) => last_displacement(state, &h[a]),
+                _ => *state,
+            };
             let tracks = &mut self.out.positions[a * k * steps..(a + 1) * k * steps];
             let lens = &mut self.out.lens[a * k..(a + 1) * k];
             for (track, len) in tracks.chunks_exact_mut(steps).zip(lens) {
@@ -66,6 +78,30 @@ impl Call<'_, '_> {
             if let Some(scores) = self.scores.as_deref_mut() {
                 let v = cvm_score(self.map, &near, state, self.params.dt, steps);
                 scores[a * k..(a + 1) * k].fill(v as f32);
+            }
+        }
+    }
+
+    /// The motion model's samples of every agent (`motion.rs`).
+    pub(super) fn motion(mut self) {
+        let steps = self.params.steps();
+        let k = self.params.k;
+        for (a, state) in self.agents.iter().enumerate() {
+            let history = match self.histories {
+                Some(h) => h[a],
+                None => History::from_state(state),
+            };
+            let forecast = self.motion.forecast(&history);
+            let key = agent_key(self.seed, self.first_agent + a as u64);
+            let tracks = &mut self.out.positions[a * k * steps..(a + 1) * k * steps];
+            let lens = &mut self.out.lens[a * k..(a + 1) * k];
+            for (s, (track, len)) in tracks.chunks_exact_mut(steps).zip(lens).enumerate() {
+                let z = sample_normal(key, s);
+                roll_motion(&forecast, self.params.dt, z, track);
+                *len = steps as u32;
+                if let Some(scores) = self.scores.as_deref_mut() {
+                    scores[a * k + s] = motion_score(z);
+                }
             }
         }
     }
@@ -80,6 +116,8 @@ impl Call<'_, '_> {
         let Call {
             map,
             agents,
+            histories: _,
+            motion: _,
             params,
             extras,
             seed,

@@ -40,6 +40,7 @@ mod lanes;
 mod lanes_avx2;
 #[cfg(target_arch = "x86_64")]
 mod lanes_options_avx2;
+mod motion;
 mod options;
 pub mod preset;
 mod prune;
@@ -58,7 +59,9 @@ pub use options::{
     CONSENSUS_STEP_PENALTY, Checkpoint, NO_LOCATION_LOG_DENSITY, Options, PRUNE_SCHEDULE, Rank,
 };
 pub use rollout::{Rollout, Tables};
-pub use with_options::{predict_batch, predict_batch_into, predict_into_with, predict_with};
+pub use with_options::{
+    predict_batch, predict_batch_into, predict_into_with, predict_with, predict_with_histories,
+};
 
 /// Prediction method.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
@@ -72,6 +75,18 @@ pub enum Method {
     /// paper: a heading kernel of beta 2 and a score per sample); its content is set by
     /// the project's held-out experiments. Resolved by [`preset::resolve`].
     Improved,
+    /// The learned motion model alone ([`MotionModel`](crate::motion::MotionModel), the
+    /// built-in one unless [`Rollout::with_motion_model`] names another): how people
+    /// walk on from their last 2.8 s, without a map; the first sample is the expected
+    /// path, the others spread as the model's residuals did. Every sample reaches the
+    /// horizon. From observed histories
+    /// ([`predict_with_histories`]); from bare states, from the path of constant velocity
+    /// up to the state.
+    Motion,
+    /// Constant velocity of the last observed displacement (the THÖR-MAGNI benchmark's
+    /// baseline): from observed histories ([`predict_with_histories`]) the velocity of
+    /// the history's last step; from bare states the state's velocity, as [`Method::Cvm`].
+    CvmLast,
 }
 
 impl Method {
@@ -82,6 +97,8 @@ impl Method {
             Method::Cliff => "cliff",
             Method::Cvm => "cvm",
             Method::Improved => "improved",
+            Method::Motion => "motion",
+            Method::CvmLast => "cvm-last",
         }
     }
 
@@ -89,7 +106,13 @@ impl Method {
     /// velocity): they need the map's neighbour table for the sampling radius, and
     /// their samples differ from seed to seed.
     pub fn samples_map(self) -> bool {
-        self != Method::Cvm
+        matches!(self, Method::Cliff | Method::Improved)
+    }
+
+    /// True for the methods whose every sample is the same path (constant velocity):
+    /// one sample stands for all.
+    pub fn is_deterministic(self) -> bool {
+        matches!(self, Method::Cvm | Method::CvmLast)
     }
 }
 
@@ -106,8 +129,10 @@ impl FromStr for Method {
             "cliff" | "cliff-lhmp" | "lhmp" | "mod" => Ok(Method::Cliff),
             "cvm" | "cv" | "constant-velocity" => Ok(Method::Cvm),
             "improved" => Ok(Method::Improved),
+            "motion" => Ok(Method::Motion),
+            "cvm-last" | "cv-last" => Ok(Method::CvmLast),
             other => Err(format!(
-                "unknown method '{other}' (expected cliff, cvm or improved)"
+                "unknown method '{other}' (expected cliff, cvm, improved, motion or cvm-last)"
             )),
         }
     }

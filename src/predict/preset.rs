@@ -104,6 +104,6 @@ pub fn resolve(params: &Params, options: &Options) -> (Params, Options) {
                 ..IMPROVED.options
             },
         ),
-        Method::Cliff | Method::Cvm => (*params, *options),
+        Method::Cliff | Method::Cvm | Method::Motion | Method::CvmLast => (*params, *options),
     }
 }

@@ -9,16 +9,18 @@
 //! the options cost nothing when they are off. Each flavour has a baseline copy and an
 //! AVX2 + FMA copy, chosen at run time ([`Simd`](crate::math::Simd)).
 
+use std::sync::Arc;
+
 use glam::DVec2;
 
 use super::call::Call;
 use super::candidates::Candidates;
 use super::lanes::Extras;
 use super::options::Options;
-use super::{BatchMut, Method, Params, PredictError, preset};
+use super::{BatchMut, Method, Params, PredictError, TrajectoryBatch, preset};
 use crate::map::{CliffMap, Lookup};
 use crate::math::Simd;
-use crate::motion::State;
+use crate::motion::{History, MotionModel, State};
 
 /// Which neighbour-table path a [`Rollout`] takes for CLiFF-LHMP map lookups.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -94,6 +96,8 @@ pub struct Rollout {
     scratch: Candidates,
     /// The instructions the lane loop runs on (available on this processor).
     simd: Simd,
+    /// The motion model of [`Method::Motion`] (none: the built-in one).
+    motion: Option<Arc<MotionModel>>,
 }
 
 impl Rollout {
@@ -112,6 +116,7 @@ impl Rollout {
             next_agent: 0,
             scratch: Candidates::reuse(),
             simd: Simd::active(),
+            motion: None,
         })
     }
 
@@ -158,6 +163,18 @@ impl Rollout {
         self
     }
 
+    /// The same rollout with the motion model `model` for [`Method::Motion`] instead of
+    /// the built-in one ([`MotionModel::builtin`]).
+    pub fn with_motion_model(mut self, model: Arc<MotionModel>) -> Self {
+        self.motion = Some(model);
+        self
+    }
+
+    /// The motion model [`Method::Motion`] predicts with.
+    pub fn motion_model(&self) -> &MotionModel {
+        self.motion.as_deref().unwrap_or(MotionModel::builtin())
+    }
+
     /// The instructions the lane loop runs on.
     pub fn simd(&self) -> Simd {
         self.simd
@@ -188,6 +205,30 @@ impl Rollout {
         out: BatchMut<'_>,
         scores: Option<&mut [f32]>,
     ) -> Result<(), PredictError> {
+        self.predict_agents_observed(map, agents, None, out, scores)
+    }
+
+    /// [`predict_agents`](Self::predict_agents) with each agent's observed
+    /// [`History`] (one per agent, `histories[i]` ending at `agents[i]`'s position),
+    /// which [`Method::Motion`] and [`Method::CvmLast`] read; the other methods ignore
+    /// them. Without histories those two take the path of constant velocity up to each
+    /// state.
+    pub fn predict_agents_observed(
+        &mut self,
+        map: &CliffMap,
+        agents: &[State],
+        histories: Option<&[History]>,
+        out: BatchMut<'_>,
+        scores: Option<&mut [f32]>,
+    ) -> Result<(), PredictError> {
+        if let Some(h) = histories
+            && h.len() != agents.len()
+        {
+            return Err(PredictError::Param {
+                name: "histories",
+                why: format!("{} histories for {} agents", h.len(), agents.len()),
+            });
+        }
         let params = &self.params;
         let options = &self.options;
         let steps = check_call(agents, params, &out)?;
@@ -234,14 +275,16 @@ impl Rollout {
             simd: self.simd,
         };
         let lookup = match (params.method, scores.is_some(), self.tables) {
-            // constant velocity looks the map up only for scores
-            (Method::Cvm, false, _) => None,
+            // constant velocity looks the map up only for scores, the motion model never
+            (Method::Cvm | Method::CvmLast, false, _) | (Method::Motion, _, _) => None,
             (_, _, Tables::Build) => Some(map.lookup(params.radius)),
             (_, _, Tables::CachedOnly) => Some(map.cached_lookup(params.radius)),
         };
         let call = Call {
             map,
             agents,
+            histories,
+            motion: self.motion.as_deref().unwrap_or(MotionModel::builtin()),
             params,
             extras: &extras,
             seed: self.seed,
@@ -251,11 +294,31 @@ impl Rollout {
             scratch: &mut self.scratch,
         };
         match lookup {
+            None if params.method == Method::Motion => call.motion(),
             None => call.cvm(|_: DVec2| None::<usize>),
             Some(Lookup::Table(t)) => call.run(Some(&t), |p| t.best_near(p)),
             Some(Lookup::Grid(m, r)) => call.run(None, |p| m.best_near(p, r)),
         }
         Ok(())
+    }
+}
+
+impl Rollout {
+    /// Predict `agents` (with their observed histories, when given: see
+    /// [`predict_agents_observed`](Self::predict_agents_observed)) into `out`, sized
+    /// for them, with scores in [`TrajectoryBatch::scores`] when the options ask for them.
+    pub fn predict_batch(
+        &mut self,
+        map: &CliffMap,
+        agents: &[State],
+        histories: Option<&[History]>,
+        out: &mut TrajectoryBatch,
+    ) -> Result<(), PredictError> {
+        let scored = self.options.scores;
+        out.try_reshape(agents.len(), self.params.k, self.params.steps())?;
+        out.try_size_scores(scored)?;
+        let (batch, scores) = out.parts_mut();
+        self.predict_agents_observed(map, agents, histories, batch, scored.then_some(scores))
     }
 }
 
@@ -335,6 +398,7 @@ impl Rollout {
             next_agent: self.next_agent + agents,
             scratch: Candidates::reuse(),
             simd: self.simd,
+            motion: self.motion.clone(),
         }
     }
 

@@ -6,7 +6,7 @@ use super::options::Options;
 use super::rollout::Rollout;
 use super::{BatchMut, Params, PredictError, TrajectoryBatch};
 use crate::map::CliffMap;
-use crate::motion::State;
+use crate::motion::{History, State};
 
 /// [`predict`](super::predict) with [`Options`]: scores, when asked (by the options or a
 /// preset method), go to [`TrajectoryBatch::scores`].
@@ -23,6 +23,41 @@ pub fn predict_with(
     out.try_size_scores(scored)?;
     let (batch, scores) = out.parts_mut();
     rollout.predict_agents(map, agents, batch, scored.then_some(scores))
+}
+
+/// [`predict_with`] from each agent's observed [`History`] as well as its state (one
+/// history per agent), which [`Method::Motion`](super::Method::Motion) and
+/// [`Method::CvmLast`](super::Method::CvmLast) read (the other methods predict as
+/// [`predict_with`] does).
+///
+/// ```
+/// use cliff::map::CliffMap;
+/// use cliff::motion::{History, State};
+/// use cliff::predict::{Method, Options, Params, TrajectoryBatch, predict_with_histories};
+/// use glam::DVec2;
+///
+/// // walking east at 1 m/s, then the last step turned north
+/// let times = [0.0, 0.4, 0.8, 1.2];
+/// let points = [DVec2::new(0.0, 0.0), DVec2::new(0.4, 0.0), DVec2::new(0.8, 0.0), DVec2::new(0.8, 0.4)];
+/// let history = History::from_points(&times, &points).unwrap();
+/// let state = State { position: points[3], speed: 1.0, heading: 0.0, time: 1.2 };
+/// let params = Params { method: Method::CvmLast, k: 1, horizon: 2.0, ..Params::default() };
+/// let mut batch = TrajectoryBatch::new();
+/// predict_with_histories(&CliffMap::demo(), &[state], &[history], &params, &Options::default(), &mut batch).unwrap();
+/// let end = batch.sample(0, 0).last().unwrap();
+/// assert!((end[0] - 0.8).abs() < 1e-5 && (end[1] - 2.4).abs() < 1e-5); // on north at 1 m/s
+/// ```
+pub fn predict_with_histories(
+    map: &CliffMap,
+    agents: &[State],
+    histories: &[History],
+    params: &Params,
+    options: &Options,
+    out: &mut TrajectoryBatch,
+) -> Result<(), PredictError> {
+    Rollout::new(params)?
+        .with_options(*options)?
+        .predict_batch(map, agents, Some(histories), out)
 }
 
 /// [`predict_with`] on all cores (rayon): the agents are shared among the threads, each

@@ -29,9 +29,17 @@ pub struct PredictionArgs {
     /// observed rows, 10-row idle filter whatever the rate), `seconds` (the same rules
     /// stated in time, with a 4 s idle window, for data at any rate) or `windows` (the
     /// seconds rules in a window every `--window-every` seconds along each track, for long
-    /// recordings such as THÖR-MAGNI).
+    /// recordings such as THÖR-MAGNI) or `tracklets` (the THÖR-MAGNI benchmark's cut:
+    /// each track's contiguous rows back to back in --obs-rows + --pred-rows rows, no
+    /// idle filter).
     #[arg(long, default_value = "seconds")]
     pub protocol: Protocol,
+    /// Observed rows per tracklet (sets --obs to this many --dt); the benchmark's 8.
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..))]
+    pub obs_rows: Option<u32>,
+    /// Predicted rows per tracklet (sets --horizon to this many --dt); the benchmark's 12.
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..))]
+    pub pred_rows: Option<u32>,
     /// Observed history (s); the reference protocol turns it into rows (3.2 s at 0.4 s = 8 rows).
     #[arg(long, default_value_t = 3.2)]
     pub obs: f64,
@@ -124,9 +132,11 @@ impl PredictionArgs {
     pub fn settings(&self) -> Settings {
         Settings {
             protocol: self.protocol,
-            obs: self.obs,
+            obs: self.obs_rows.map_or(self.obs, |n| f64::from(n) * self.dt),
             dt: self.dt,
-            horizon: self.horizon,
+            horizon: self
+                .pred_rows
+                .map_or(self.horizon, |n| f64::from(n) * self.dt),
             sigma: self.sigma,
             window_every: self.window_every,
             full_horizon_only: self.full_horizon_only,
@@ -156,7 +166,9 @@ impl PredictionArgs {
             method,
             k: self.k,
             dt: self.dt,
-            horizon: self.horizon,
+            horizon: self
+                .pred_rows
+                .map_or(self.horizon, |n| f64::from(n) * self.dt),
             beta: self.beta,
             radius: self.radius,
             seed,

@@ -11,6 +11,8 @@ use crate::map::diff::DiffArgs;
 use crate::map::info::InfoArgs;
 use crate::map::score::ScoreArgs;
 use crate::map::update::UpdateArgs;
+use crate::motion::fit::FitArgs;
+use crate::motion::info::InfoArgs as MotionInfoArgs;
 use crate::observe::ObserveArgs;
 use crate::plot::curves::CurvesArgs;
 use crate::plot::map::MapArgs;
@@ -35,6 +37,10 @@ pub enum Command {
     /// Inspect, convert, build, score and update CLiFF-maps.
     #[command(subcommand)]
     Map(MapCommand),
+    /// Fit and inspect the learned motion model (how people walk on over the next
+    /// seconds, whatever the site).
+    #[command(subcommand)]
+    Motion(MotionCommand),
     /// Evaluate methods on trajectory files: ADE/FDE, top-k, per horizon, over seeds.
     ///
     /// Example (THÖR1, parity with the published implementation):
@@ -105,6 +111,25 @@ pub enum MapCommand {
     /// Example: cliff map diff ../shared/data/thor1/cliffmap.csv learned/thor1.v00000003.cliff
     /// --png diff.png
     Diff(DiffArgs),
+}
+
+/// Motion model subcommands.
+#[derive(Subcommand)]
+pub enum MotionCommand {
+    /// Fit a motion model to recorded trajectories: ridge regression of the next
+    /// seconds' displacements on the last 2.8 s, in the walker's own frame. Prints a
+    /// validation split's errors beside constant velocity's, then writes the model
+    /// fitted on all the tracks.
+    ///
+    /// Example: cliff motion fit --tracks ../shared/data/thor1/exp-1-run-2.csv --format thor
+    /// --out thor1.motion
+    ///
+    /// The built-in model (src/motion/builtin.motion) is made by:
+    /// cliff motion fit --tracks ../shared/data/atc/train/*.csv --format atc
+    ///   --out src/motion/builtin.motion
+    Fit(FitArgs),
+    /// Show what a motion model file holds (without a file: the built-in model).
+    Info(MotionInfoArgs),
 }
 
 /// Plot subcommands.

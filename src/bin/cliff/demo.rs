@@ -146,6 +146,7 @@ pub fn run(a: DemoArgs) -> Result<()> {
     // 1. The evaluation: every method on the same people.
     let settings = a.prediction.settings();
     let cfg = EvalConfig {
+        motion_model: None,
         settings,
         params: a.prediction.params(Method::Cliff, 0),
         seeds: a.seeds.max(1),

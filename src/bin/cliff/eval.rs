@@ -6,8 +6,10 @@ use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result, bail};
 use clap::Args;
+use cliff::eval::metrics::Counting;
 use cliff::eval::protocol::Protocol;
 use cliff::eval::{EvalConfig, evaluate, summary_table, table_horizons, write_reports};
+use cliff::motion::MotionModel;
 use cliff::predict::Method;
 use cliff::tracks::Format;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
@@ -44,9 +46,25 @@ pub struct EvalArgs {
     #[arg(long, default_value_t = 1)]
     pub seeds: usize,
     /// Methods to compare on the same people, comma-separated: cliff, cvm, improved
-    /// (CLiFF-LHMP with the project's preset: its own beta and options).
+    /// (CLiFF-LHMP with the project's preset: its own beta and options), motion (the
+    /// learned motion model alone, no map) and cvm-last (constant velocity of the last
+    /// observed displacement, the THÖR-MAGNI benchmark's baseline).
     #[arg(long, value_delimiter = ',', default_value = "cliff,cvm")]
     pub methods: Vec<Method>,
+    /// Which samples count at a horizon: `everyone` (a sample that stopped counts where
+    /// it stopped, so every method is scored over the same people; reach is reported
+    /// beside) or `reached` (only the samples that reached it, the published code's
+    /// rule) [default: reached with --protocol reference, everyone otherwise].
+    #[arg(long, value_name = "RULE")]
+    pub count: Option<Counting>,
+    /// Tracklets protocol: leave out tracklets with a step faster than this (m/s,
+    /// tracking jumps) [default: none left out].
+    #[arg(long, value_name = "M/S")]
+    pub max_speed: Option<f64>,
+    /// Motion model file (.motion, `cliff motion fit`) for the `motion` method
+    /// [default: the built-in model].
+    #[arg(long, value_name = "FILE")]
+    pub motion_model: Option<PathBuf>,
     /// Output folder for summary.csv and per_person.csv.
     #[arg(long)]
     pub out: Option<PathBuf>,
@@ -93,8 +111,24 @@ pub fn run(a: EvalArgs) -> Result<()> {
     }
     let maps = load_map_set(a.map.as_ref(), a.clock_offset)?;
     let tracks = load_tracks_with(&a.tracks, a.format, &a.read)?;
+    let mut settings = a.prediction.settings();
+    settings.counting = a.count.unwrap_or(match settings.protocol {
+        Protocol::Reference => Counting::Reached,
+        _ => Counting::Everyone,
+    });
+    if let Some(v) = a.max_speed {
+        if !(v > 0.0) {
+            bail!("--max-speed {v} is not a positive speed");
+        }
+        settings.max_speed = v;
+    }
+    let motion_model = match &a.motion_model {
+        Some(p) => Some(std::sync::Arc::new(MotionModel::load(p)?)),
+        None => None,
+    };
     let cfg = EvalConfig {
-        settings: a.prediction.settings(),
+        motion_model,
+        settings,
         params: a.prediction.params(Method::Cliff, 0),
         seeds: a.seeds.max(1),
         methods: a.methods.clone(),
@@ -105,15 +139,19 @@ pub fn run(a: EvalArgs) -> Result<()> {
     let report = evaluate(&maps, &tracks, &cfg, &|| progress.tick()).context("evaluation")?;
     progress.bar.finish_and_clear();
     println!(
-        "{} of {} people evaluated ({} protocol, {} seed(s), {:.1} s)",
-        if cfg.settings.protocol == Protocol::Windows {
-            format!("{} windows", report.people_evaluated)
-        } else {
-            report.people_evaluated.to_string()
+        "{} of {} people evaluated ({} protocol, {} seed(s), every sample counted {}, {:.1} s)",
+        match cfg.settings.protocol {
+            Protocol::Windows => format!("{} windows", report.people_evaluated),
+            Protocol::Tracklets => format!("{} tracklets", report.people_evaluated),
+            _ => report.people_evaluated.to_string(),
         },
         report.people_total,
         cfg.settings.protocol,
         cfg.seeds,
+        match cfg.settings.counting {
+            Counting::Everyone => "to the horizon",
+            Counting::Reached => "while it goes on",
+        },
         t0.elapsed().as_secs_f64()
     );
     let horizons = table_horizons(cfg.settings.horizon, cfg.settings.dt);

@@ -13,6 +13,7 @@
 //! - `demo.rs`: `cliff demo`, the guided tour from nothing to three pictures
 //! - `observe.rs`: `cliff observe`, tracks streamed to a learning daemon (runs
 //!   `cliff-observe`)
+//! - `motion/fit.rs`, `motion/info.rs`: `cliff motion fit | info`
 //! - `map/info.rs`, `map/convert.rs`, `map/build.rs`, `map/score.rs`,
 //!   `map/update.rs`: `cliff map info | convert | build | score | update`
 //! - `plot/map.rs`, `plot/predict.rs`, `plot/curves.rs`:
@@ -33,6 +34,7 @@ mod demo;
 mod eval;
 mod load;
 mod map;
+mod motion;
 mod observe;
 mod person;
 mod plot;
@@ -40,7 +42,7 @@ mod predict;
 
 use clap::Parser;
 
-use cli::{Cli, Command, MapCommand, PlotCommand};
+use cli::{Cli, Command, MapCommand, MotionCommand, PlotCommand};
 
 fn main() -> std::process::ExitCode {
     // Like other Unix tools: end quietly when the reader of our output goes away
@@ -58,6 +60,8 @@ fn main() -> std::process::ExitCode {
         Command::Map(MapCommand::Score(a)) => map::score::run(a),
         Command::Map(MapCommand::Update(a)) => map::update::run(a),
         Command::Map(MapCommand::Diff(a)) => map::diff::run(a),
+        Command::Motion(MotionCommand::Fit(a)) => motion::fit::run(a),
+        Command::Motion(MotionCommand::Info(a)) => motion::info::run(a),
         Command::Eval(a) => eval::run(a),
         Command::Predict(a) => predict::run(a),
         Command::Plot(PlotCommand::Map(a)) => plot::map::run(a),

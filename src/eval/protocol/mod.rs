@@ -6,6 +6,8 @@
 //! * [`Protocol::Seconds`]: the same ideas stated in time, for data at any rate.
 //! * [`Protocol::Windows`]: the seconds rules applied to windows along long recordings
 //!   (see [`windows`](crate::eval::windows)); [`prepare_all`] gives every window.
+//! * [`Protocol::Tracklets`]: the THÖR-MAGNI benchmark's back-to-back tracklets
+//!   ([`tracklets`]); [`prepare_all`] gives every tracklet.
 //!
 //! See `../shared/docs/evaluation-protocol.md` for the rules.
 //!
@@ -16,6 +18,7 @@
 //! | [`prepare`](mod@prepare) | [`prepare`], [`prepare_all`]: the protocol chosen by the settings |
 //! | `reference` | the published code's row-based rules |
 //! | `seconds` | the same rules stated in time |
+//! | [`tracklets`] | the benchmark's tracklets |
 //!
 //! The windows along long recordings are in [`crate::eval::windows`].
 
@@ -24,6 +27,7 @@ pub mod prepare;
 mod reference;
 pub(crate) mod seconds;
 pub mod settings;
+pub mod tracklets;
 
 pub use case::Case;
 pub use prepare::{prepare, prepare_all};

@@ -4,6 +4,7 @@ use super::case::Case;
 use super::reference::prepare_reference;
 use super::seconds::prepare_seconds;
 use super::settings::{Protocol, Settings};
+use super::tracklets;
 use crate::eval::windows;
 use crate::predict::steps_for;
 use crate::tracks::Track;
@@ -14,6 +15,7 @@ pub fn prepare(track: &Track, s: &Settings) -> Option<Case> {
         Protocol::Reference => prepare_reference(track, s),
         Protocol::Seconds => prepare_seconds(track, s),
         Protocol::Windows => windows::first_window(track, s),
+        Protocol::Tracklets => tracklets::first_tracklet(track, s),
     }
 }
 
@@ -35,6 +37,13 @@ fn prepare_each(tracks: &[Track], s: &Settings) -> Vec<Case> {
             let mut out = Vec::new();
             for t in tracks {
                 windows::windows_of(t, s, &mut out);
+            }
+            out
+        }
+        Protocol::Tracklets => {
+            let mut out = Vec::new();
+            for t in tracks {
+                tracklets::tracklets_of(t, s, &mut out);
             }
             out
         }

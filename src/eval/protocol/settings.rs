@@ -4,6 +4,7 @@
 use std::fmt;
 use std::str::FromStr;
 
+use crate::eval::metrics::Counting;
 use crate::motion::DEFAULT_SIGMA;
 
 /// The two evaluation protocols.
@@ -17,6 +18,11 @@ pub enum Protocol {
     /// The seconds rules in a window every [`Settings::window_every`] seconds along each
     /// track (long recordings such as THÖR-MAGNI).
     Windows,
+    /// The THÖR-MAGNI benchmark's tracklets: each track's contiguous rows cut back to
+    /// back into `obs + horizon` seconds' rows, observed for [`Settings::obs`] and
+    /// predicted for [`Settings::horizon`], without an idle filter (see
+    /// [`tracklets`](super::tracklets)).
+    Tracklets,
 }
 
 impl FromStr for Protocol {
@@ -26,8 +32,9 @@ impl FromStr for Protocol {
             "reference" | "ref" => Ok(Protocol::Reference),
             "seconds" | "time" => Ok(Protocol::Seconds),
             "windows" | "window" => Ok(Protocol::Windows),
+            "tracklets" | "tracklet" => Ok(Protocol::Tracklets),
             other => Err(format!(
-                "unknown protocol '{other}' (expected reference, seconds or windows)"
+                "unknown protocol '{other}' (expected reference, seconds, windows or tracklets)"
             )),
         }
     }
@@ -39,6 +46,7 @@ impl fmt::Display for Protocol {
             Protocol::Reference => "reference",
             Protocol::Seconds => "seconds",
             Protocol::Windows => "windows",
+            Protocol::Tracklets => "tracklets",
         })
     }
 }
@@ -70,6 +78,15 @@ pub struct Settings {
     /// [`prepare_all`] keeps only the people (or windows) whose ground truth lasts the
     /// whole horizon, so that every horizon is evaluated on the same people.
     pub full_horizon_only: bool,
+    /// Tracklets protocol: a tracklet with a step faster than this (m/s, a tracking
+    /// jump) is left out, as the benchmark leaves out tracklets outside its speed
+    /// bounds (infinite: every tracklet).
+    pub max_speed: f64,
+    /// Which samples count at a horizon: every sample, a stopped one where it stopped
+    /// ([`Counting::Everyone`], so every method is scored over the same people), or only
+    /// those that reached it ([`Counting::Reached`], the published code's rule and the
+    /// default, for parity).
+    pub counting: Counting,
 }
 
 impl Default for Settings {
@@ -85,6 +102,8 @@ impl Default for Settings {
             idle_window: 4.0,
             window_every: 0.0,
             full_horizon_only: false,
+            max_speed: f64::INFINITY,
+            counting: Counting::Reached,
         }
     }
 }
