@@ -262,7 +262,6 @@ fn atc(dir: &str, hours: &[u32]) -> Vec<PathBuf> {
 }
 
 fn eval_config() -> EvalConfig {
-    motion_model: None,
     EvalConfig {
         motion_model: None,
         settings: Settings {
