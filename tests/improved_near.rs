@@ -6,7 +6,7 @@
 
 use std::path::{Path, PathBuf};
 
-use cliff::eval::metrics::{Scratch, StepErrors, person_errors};
+use cliff::eval::metrics::{Counting, Scratch, StepErrors, person_errors};
 use cliff::eval::person_seed;
 use cliff::eval::protocol::{Case, Protocol, Settings, prepare_all};
 use cliff::map::CliffMap;
@@ -76,6 +76,7 @@ fn paired(map: &CliffMap, cases: &[Case], seed: u64, radius: f64) -> Vec<Pair> {
         person_errors(
             &case,
             DT,
+            Counting::Reached,
             (0..params.k).map(|s| batch.sample(0, s)),
             batch.scores(),
             &mut scratch,
@@ -85,6 +86,7 @@ fn paired(map: &CliffMap, cases: &[Case], seed: u64, radius: f64) -> Vec<Pair> {
         person_errors(
             &case,
             DT,
+            Counting::Reached,
             std::iter::once(&cv[..]),
             &[],
             &mut scratch,

@@ -67,11 +67,7 @@ impl Default for PredictSettings {
 
 /// The method's name as in the messages and settings.
 pub fn method_name(m: Method) -> &'static str {
-    match m {
-        Method::Cliff => "cliff",
-        Method::Cvm => "cvm",
-        Method::Improved => "improved",
-    }
+    m.name()
 }
 
 /// Where predictions come from.

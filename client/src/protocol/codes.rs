@@ -54,6 +54,14 @@ pub const METHOD_CVM: u32 = 1;
 /// (`Method::Improved`: CLiFF-LHMP with a preset of parameters and options, resolved by the
 /// library, `cliff::predict::preset`; the preset's beta and options replace the request's).
 pub const METHOD_IMPROVED: u32 = 2;
+/// [`RequestHeader::method`](super::RequestHeader::method) for the learned motion model alone
+/// (`Method::Motion`). Reserved: cliffd does not serve it yet and answers
+/// [`Status::UnknownMethod`](super::Status::UnknownMethod); predict it in-process
+/// (`cliff::predict::predict_with_histories`).
+pub const METHOD_MOTION: u32 = 3;
+/// [`RequestHeader::method`](super::RequestHeader::method) for constant velocity of the last
+/// displacement (`Method::CvmLast`). Reserved as [`METHOD_MOTION`] is.
+pub const METHOD_CVM_LAST: u32 = 4;
 
 /// [`RequestHeader::flags`](super::RequestHeader::flags) and
 /// [`ResponseHeader::flags`](super::ResponseHeader::flags) bit: the response carries a score per
@@ -106,10 +114,13 @@ pub fn method_code(method: Method) -> u32 {
         Method::Cliff => METHOD_CLIFF,
         Method::Cvm => METHOD_CVM,
         Method::Improved => METHOD_IMPROVED,
+        Method::Motion => METHOD_MOTION,
+        Method::CvmLast => METHOD_CVM_LAST,
     }
 }
 
-/// The method of a wire code; `None` for an unknown code.
+/// The method of a wire code; `None` for an unknown code and for the reserved codes
+/// this version does not serve ([`METHOD_MOTION`], [`METHOD_CVM_LAST`]).
 pub fn method_from_code(code: u32) -> Option<Method> {
     match code {
         METHOD_CLIFF => Some(Method::Cliff),

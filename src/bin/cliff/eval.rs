@@ -54,9 +54,9 @@ pub struct EvalArgs {
     /// Which samples count at a horizon: `everyone` (a sample that stopped counts where
     /// it stopped, so every method is scored over the same people; reach is reported
     /// beside) or `reached` (only the samples that reached it, the published code's
-    /// rule) [default: reached with --protocol reference, everyone otherwise].
-    #[arg(long, value_name = "RULE")]
-    pub count: Option<Counting>,
+    /// rule).
+    #[arg(long, value_name = "RULE", default_value = "reached")]
+    pub count: Counting,
     /// Tracklets protocol: leave out tracklets with a step faster than this (m/s,
     /// tracking jumps) [default: none left out].
     #[arg(long, value_name = "M/S")]
@@ -112,10 +112,7 @@ pub fn run(a: EvalArgs) -> Result<()> {
     let maps = load_map_set(a.map.as_ref(), a.clock_offset)?;
     let tracks = load_tracks_with(&a.tracks, a.format, &a.read)?;
     let mut settings = a.prediction.settings();
-    settings.counting = a.count.unwrap_or(match settings.protocol {
-        Protocol::Reference => Counting::Reached,
-        _ => Counting::Everyone,
-    });
+    settings.counting = a.count;
     if let Some(v) = a.max_speed {
         if !(v > 0.0) {
             bail!("--max-speed {v} is not a positive speed");
@@ -139,7 +136,7 @@ pub fn run(a: EvalArgs) -> Result<()> {
     let report = evaluate(&maps, &tracks, &cfg, &|| progress.tick()).context("evaluation")?;
     progress.bar.finish_and_clear();
     println!(
-        "{} of {} people evaluated ({} protocol, {} seed(s), every sample counted {}, {:.1} s)",
+        "{} of {} people evaluated ({} protocol, {} seed(s), {:.1} s)",
         match cfg.settings.protocol {
             Protocol::Windows => format!("{} windows", report.people_evaluated),
             Protocol::Tracklets => format!("{} tracklets", report.people_evaluated),
@@ -148,10 +145,6 @@ pub fn run(a: EvalArgs) -> Result<()> {
         report.people_total,
         cfg.settings.protocol,
         cfg.seeds,
-        match cfg.settings.counting {
-            Counting::Everyone => "to the horizon",
-            Counting::Reached => "while it goes on",
-        },
         t0.elapsed().as_secs_f64()
     );
     let horizons = table_horizons(cfg.settings.horizon, cfg.settings.dt);
