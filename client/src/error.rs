@@ -9,7 +9,9 @@ use crate::protocol::{PROTOCOL_VERSION, Rejection, Status};
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum Error {
     /// No daemon serves this service (never started, or stopped).
-    #[error("no cliffd daemon serves '{service}' (is it running, with the same --prefix?)")]
+    #[error(
+        "no cliffd daemon serves '{service}' (is it running, with the same --service and --prefix? see docs/troubleshooting.md)"
+    )]
     NoDaemon {
         /// The service name.
         service: String,
@@ -58,7 +60,7 @@ impl Error {
 /// The error for a daemon that speaks another protocol version.
 pub(crate) fn version_mismatch(daemon: u32) -> Error {
     Error::Protocol(format!(
-        "the daemon speaks protocol version {daemon}, this client {PROTOCOL_VERSION}"
+        "the daemon speaks protocol version {daemon}, this client {PROTOCOL_VERSION} (run a daemon and clients of one release; see docs/troubleshooting.md)"
     ))
 }
 

@@ -144,7 +144,7 @@ fn after_help() -> String {
         "\nROS 2 launch arguments work too: --ros-args -r __node:=NAME -r __ns:=/NS --params-file FILE -p k:=10.\n\
          The DDS domain is ROS_DOMAIN_ID (default 0). Logs: RUST_LOG (default info).\n\
          Examples:\n  cliff-ros2 --map cliffmap.csv -p rate:=5.0 -r people:=/tracker/people\n  \
-         cliffd --map hall=cliffmap.csv & cliff-ros2 -p daemon_map:=hall --params-file cliff.yaml\n",
+         cliffd --map hall=cliffmap.csv & cliff-ros2 -p daemon_map:=hall --params-file ros2/config/cliff.yaml\n",
     );
     s
 }

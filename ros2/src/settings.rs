@@ -480,6 +480,30 @@ mod tests {
     }
 
     #[test]
+    fn the_shipped_parameters_file_holds_every_parameter_at_its_default() {
+        // ros2/config/cliff.yaml, the file the front page's command passes
+        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("config/cliff.yaml");
+        let m = file_parameters(&path, "cliff_ros2", "/").unwrap();
+        let Value::Mapping(all) = serde_yaml_ng::to_value(Parameters::default()).unwrap() else {
+            panic!("the parameters serialize as a mapping");
+        };
+        let names = |m: &Mapping| {
+            m.keys()
+                .map(|k| k.as_str().unwrap_or_default().to_string())
+                .collect::<std::collections::BTreeSet<_>>()
+        };
+        assert_eq!(
+            names(&m),
+            names(&all),
+            "the file names every parameter once"
+        );
+        assert_eq!(parameters(m, &[]).unwrap(), Parameters::default());
+        // a renamed node in a namespace reads it as well
+        let m = file_parameters(&path, "people_predictor", "/robot").unwrap();
+        assert_eq!(parameters(m, &[]).unwrap(), Parameters::default());
+    }
+
+    #[test]
     fn remapping_by_key_or_name() {
         let t = topics(&[
             "people:=/tracker/people".into(),

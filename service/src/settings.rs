@@ -199,7 +199,9 @@ pub enum StartError {
     #[error("iceoryx2: {0}")]
     Ipc(String),
     /// Another daemon already serves the service.
-    #[error("another cliffd already serves '{0}' (stop it, or use another --service or --prefix)")]
+    #[error(
+        "another cliffd already serves '{0}' (stop it, or use another --service or --prefix; see docs/troubleshooting.md)"
+    )]
     AlreadyServed(String),
     /// zenoh refused (endpoint in use, bad configuration).
     #[error("zenoh: {0}")]

@@ -174,8 +174,8 @@ impl Options {
     /// Measured per call on the benchmark people, against the paper's method on the
     /// same instructions (`cargo bench --bench options_cost`, BENCHMARKS.md): scores
     /// cost 1.2-1.3 times the paper, follow 1.3-1.7 times; `improved` (2 candidates
-    /// pruned and resampled, follow, scores, trust, blend, consensus) 2.5-2.9 times on
-    /// the baseline path and 2.6-3.0 on AVX2 + FMA, its flow walks 0.4-0.5 of that (with
+    /// pruned and resampled, follow, scores, trust, blend, consensus) 2.5-2.8 times on
+    /// both paths (docs/accuracy.md, "What `improved` costs"), its flow walks 0.4-0.5 of that (with
     /// its earlier 4 candidates cut to 2 and to 1 per sample: 4.3-4.8 and up to 5.4,
     /// 6.9-7.8 without pruning). The speed
     /// kernel and coasting cost 1.2 times the paper on the baseline path (the count

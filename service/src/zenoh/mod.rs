@@ -273,7 +273,9 @@ impl ZenohFrontend {
         let opened = priority::on_lowered_thread(settings.nice, move || {
             let session = zenoh::open(config)
                 .wait()
-                .map_err(|e| StartError::Zenoh(format!("cannot open the session: {e}")))?;
+                .map_err(|e| StartError::Zenoh(format!(
+                    "cannot open the session: {e} (is the endpoint's port free? see docs/troubleshooting.md)"
+                )))?;
             let queryable = session
                 .declare_queryable(key)
                 .callback(move |query: Query| match Admitted::new(query, &shared) {

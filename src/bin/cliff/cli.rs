@@ -101,7 +101,7 @@ pub enum MapCommand {
     /// sufficient statistics, samples the map does not explain get new components,
     /// near-duplicates are merged. The result goes to --out.
     ///
-    /// Example: cliff map update --map hour9.csv --count-scale 1523 --tracks
+    /// Example: cliff map update --map hour9.csv --count-scale 336 --tracks
     /// ../shared/data/atc/train/atc-1024-10_train.csv --format atc --out hour10.csv
     Update(UpdateArgs),
     /// Show what changed between two maps of one place: locations added and removed,
