@@ -62,7 +62,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         .with_options(options)?
         .with_motion_model(Arc::new(model))
         .predict_batch(&CliffMap::demo(), &[state], Some(&[history]), &mut batch)?;
-    let end = batch.sample(0, 0).last().expect("every motion sample reaches the horizon");
+    let end = batch
+        .sample(0, 0)
+        .last()
+        .expect("every motion sample reaches the horizon");
     assert!((end[0] as f64 - ahead.x).abs() < 1e-3 && (end[1] as f64 - ahead.y).abs() < 1e-3);
     let spread = (1..20)
         .map(|s| {

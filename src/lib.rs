@@ -7,7 +7,7 @@
 //! |---|---|
 //! | [`math`] | angle wrapping and the prediction loop's fast kernels |
 //! | [`tracks`] | [`Track`](tracks::Track)s, their bounds and the readers (THÖR, ATC, MAGNI, named-column CSV), the demo scene's people |
-//! | [`motion`] | a person's [`State`](motion::State), observed velocity, the speed prior |
+//! | [`motion`] | a person's [`State`](motion::State), observed velocity, the speed prior, the learned [`MotionModel`](motion::MotionModel) |
 //! | [`map`] | CLiFF-maps: the type, lookups, sampling tables, files, building, scoring, online update, time-of-day sets |
 //! | [`predict`] | CLiFF-LHMP and constant velocity into reusable batches; options and presets |
 //! | [`eval`] | evaluation protocols, metrics, reports; fitting the speed prior |

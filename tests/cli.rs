@@ -498,7 +498,9 @@ fn improved_is_cliff_with_the_preset_in_eval_and_predict() {
     ]);
     assert!(!o.status.success());
     assert!(
-        text(&o).1.contains("expected cliff, cvm or improved"),
+        text(&o)
+            .1
+            .contains("expected cliff, cvm, improved, motion or cvm-last"),
         "{}",
         text(&o).1
     );

@@ -18,7 +18,7 @@ use std::path::{Path, PathBuf};
 /// The core library's top-level modules, lowest layer first; modules of one layer may
 /// import each other (files still may not form a circle).
 const CORE_LAYERS: &[&[&str]] = &[
-    &["math", "bounded_read"],
+    &["math", "bounded_read", "framed"],
     &["tracks"],
     &["motion"],
     &["map"],

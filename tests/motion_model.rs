@@ -238,7 +238,11 @@ fn motion_fit_writes_a_model_info_reads_and_a_damaged_file_is_refused() {
         out.to_str().unwrap(),
     ]);
     let stdout = String::from_utf8_lossy(&fit.stdout);
-    assert!(fit.status.success(), "{stdout}{}", String::from_utf8_lossy(&fit.stderr));
+    assert!(
+        fit.status.success(),
+        "{stdout}{}",
+        String::from_utf8_lossy(&fit.stderr)
+    );
     assert!(stdout.contains("every 5th track held out"), "{stdout}");
     assert!(stdout.contains("ADE cvm-last"), "{stdout}");
     let model = MotionModel::load(&out).unwrap();
@@ -248,7 +252,10 @@ fn motion_fit_writes_a_model_info_reads_and_a_damaged_file_is_refused() {
         stdout.contains(&format!("{} steps of 0.4 s", model.steps())),
         "{stdout}"
     );
-    assert!(stdout.contains("thor:../shared/data/thor1/exp-1-run-2.csv"), "{stdout}");
+    assert!(
+        stdout.contains("thor:../shared/data/thor1/exp-1-run-2.csv"),
+        "{stdout}"
+    );
     let mut bytes = std::fs::read(&out).unwrap();
     let last = bytes.len() - 1;
     bytes[last] ^= 0xff;
@@ -260,4 +267,72 @@ fn motion_fit_writes_a_model_info_reads_and_a_damaged_file_is_refused() {
         stderr.contains("thor1.motion: not a valid cliff motion model: checksum mismatch"),
         "{stderr}"
     );
+}
+
+#[test]
+fn the_motion_option_leaves_the_model_where_the_map_has_nothing_and_bends_it_where_it_has() {
+    use cliff::motion::State;
+    use cliff::predict::{Options, Rank, TrajectoryBatch, predict_with};
+    use glam::DVec2;
+    let map = CliffMap::demo();
+    // `improved`'s options with the motion model under the map
+    let options = Options {
+        scores: true,
+        follow: 4.0,
+        candidates: 2,
+        prune: true,
+        trust: 0.5,
+        blend: 3.0,
+        rank: Rank::Consensus,
+        motion: true,
+        ..Options::default()
+    };
+    let params = Params {
+        beta: 2.0,
+        k: 20,
+        horizon: 12.0,
+        seed: 11,
+        ..Params::default()
+    };
+    let walker = |x: f64, y: f64| State {
+        position: DVec2::new(x, y),
+        speed: 1.2,
+        heading: 0.0,
+        time: 0.0,
+    };
+    let positions = |b: &TrajectoryBatch| -> Vec<[f32; 2]> {
+        (0..b.shape().1)
+            .flat_map(|s| b.sample(0, s).to_vec())
+            .collect()
+    };
+    // far from every location of the map: the samples are the motion model's
+    let far = [walker(500.0, 500.0)];
+    let (mut bent, mut alone) = (TrajectoryBatch::new(), TrajectoryBatch::new());
+    predict_with(&map, &far, &params, &options, &mut bent).unwrap();
+    let motion = Params {
+        method: Method::Motion,
+        ..params
+    };
+    predict_with(&map, &far, &motion, &Options::default(), &mut alone).unwrap();
+    assert!(bent.lens().iter().all(|&l| l == 30));
+    let (b, a) = (positions(&bent), positions(&alone));
+    assert_eq!(b.len(), a.len());
+    for (p, q) in b.iter().zip(&a) {
+        assert!(
+            (p[0] - q[0]).abs() < 1e-3 && (p[1] - q[1]).abs() < 1e-3,
+            "{p:?} {q:?}"
+        );
+    }
+    // in the hall, walking along its eastward flow: the map bends the samples, and every
+    // one reaches the horizon
+    let hall = [walker(-10.0, 0.5)];
+    predict_with(&map, &hall, &params, &options, &mut bent).unwrap();
+    predict_with(&map, &hall, &motion, &Options::default(), &mut alone).unwrap();
+    assert!(bent.lens().iter().all(|&l| l == 30));
+    let apart = positions(&bent)
+        .iter()
+        .zip(&positions(&alone))
+        .map(|(p, q)| ((p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2)).sqrt())
+        .fold(0.0f32, f32::max);
+    assert!(apart > 0.5, "the map moved no sample: {apart}");
 }

@@ -74,8 +74,8 @@ impl Evaluation {
 /// with the same options (same people, seeds and numbers). Each person is observed
 /// for ``obs`` seconds and predicted ``k`` times per seed up to ``horizon`` seconds
 /// (or the end of their track); ADE/FDE and their top-k minimum are reported at every
-/// ``dt`` step, averaged over the people that reach it, then over ``seeds`` seeds
-/// (constant velocity, ``cvm``, runs once).
+/// ``dt`` step, averaged over the people counted there (``count``), then over ``seeds``
+/// seeds (constant velocity, ``cvm`` and ``cvm-last``, runs once).
 ///
 /// Args:
 ///     map: the Map to predict with.
@@ -83,9 +83,19 @@ impl Evaluation {
 ///         ``build_map``).
 ///     format: "thor" or "atc" ("magni", "csv"; MCAP files are read as recordings).
 ///     topic: the topic of rosbag2 recordings (None: their one topic of people).
-///     protocol: "reference" (the published code's row-based rules, for parity) or
-///         "seconds" (the same rules stated in time).
-///     methods: list of "cliff", "cvm" and/or "improved" (None: cliff and cvm).
+///     protocol: "reference" (the published code's row-based rules, for parity),
+///         "seconds" (the same rules stated in time), "windows" (windows along long
+///         tracks) or "tracklets" (the THÖR-MAGNI benchmark's cut: ``obs`` and
+///         ``horizon`` rows of ``dt`` back to back along each track).
+///     methods: list of "cliff", "cvm", "improved", "motion" (the built-in learned
+///         motion model) and/or "cvm-last" (constant velocity of the last displacement)
+///         (None: cliff and cvm).
+///     count: "reached" (only the samples that reached a horizon, the published code's
+///         rule) or "everyone" (every sample, a stopped one where it stopped, so every
+///         method is scored over the same people; ``reach`` still says how many it
+///         reached).
+///     max_speed: with "tracklets", leave out tracklets with a step faster than this
+///         (m/s, tracking jumps); None keeps every one.
 ///
 /// Example (the README's THÖR1 parity run):
 ///     >>> r = cliff_lhmp.evaluate(cliff_lhmp.Map.load("../shared/data/thor1/cliffmap.csv"),
@@ -95,7 +105,7 @@ impl Evaluation {
 #[pyo3(signature = (map, tracks, *, format = "thor", protocol = "seconds", obs = 3.2, dt = 0.4,
     horizon = 12.0, radius = 0.7071067811865476, beta = 1.0, k = 20, seeds = 1,
     methods = None, sigma = 1.5,
-    heading = "circular-mean", topic = None))]
+    heading = "circular-mean", topic = None, count = "reached", max_speed = None))]
 #[allow(clippy::too_many_arguments)]
 pub fn evaluate(
     py: Python<'_>,
@@ -114,7 +124,21 @@ pub fn evaluate(
     sigma: f64,
     heading: &str,
     topic: Option<&str>,
+    count: &str,
+    max_speed: Option<f64>,
 ) -> PyResult<Evaluation> {
+    let counting: cliff::eval::metrics::Counting = count
+        .parse()
+        .map_err(|e: String| PyValueError::new_err(format!("count: {e}")))?;
+    let max_speed = match max_speed {
+        None => f64::INFINITY,
+        Some(v) if v > 0.0 => v,
+        Some(v) => {
+            return Err(PyValueError::new_err(format!(
+                "max_speed: {v} is not a positive speed"
+            )));
+        }
+    };
     let format = parse_format(format)?;
     let protocol: Protocol = protocol
         .parse()
@@ -171,6 +195,8 @@ pub fn evaluate(
             dt,
             horizon,
             sigma,
+            max_speed,
+            counting,
             ..Settings::default()
         },
         params,

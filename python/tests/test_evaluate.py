@@ -74,6 +74,8 @@ def test_tables_are_lists_of_dicts_for_pandas(thor1_map):
         (dict(k=0), ValueError, "k: 0 must be at least 1"),
         (dict(dt=-0.4), ValueError, "dt: -0.4 is not a positive number"),
         (dict(format="parquet"), ValueError, "format: unknown track format"),
+        (dict(count="some"), ValueError, "count: unknown counting 'some'"),
+        (dict(max_speed=-1.0), ValueError, "max_speed: -1.0 is not a positive speed"),
     ],
 )
 def test_bad_arguments(thor1_map, kwargs, exc, match):
@@ -84,3 +86,25 @@ def test_bad_arguments(thor1_map, kwargs, exc, match):
 def test_missing_track_file(thor1_map, tmp_path):
     with pytest.raises(FileNotFoundError, match="tracks: .*gone.csv does not exist"):
         cliff_lhmp.evaluate(thor1_map, tmp_path / "gone.csv")
+
+
+def test_tracklets_count_everyone_and_the_map_free_methods_match_cliff_eval(tmp_path, thor1_map):
+    # THÖR1's people cut as the THÖR-MAGNI benchmark cuts its recordings
+    args = dict(format="thor", protocol="tracklets", obs=3.2, dt=0.4, horizon=4.8, seeds=2,
+                methods=["cliff", "cvm-last", "motion"], count="everyone", max_speed=3.0)
+    r = cliff_lhmp.evaluate(thor1_map, THOR1_TRACKS, **args)
+    out = tmp_path / "eval"
+    text = run_cli(
+        "eval", "--map", str(THOR1_MAP), "--tracks", str(THOR1_TRACKS), "--format", "thor",
+        "--protocol", "tracklets", "--obs-rows", "8", "--pred-rows", "12", "--seeds", "2",
+        "--methods", "cliff,cvm-last,motion", "--count", "everyone", "--max-speed", "3",
+        "--out", str(out),
+    )
+    assert f"{r.people_evaluated} tracklets of {r.people_total} people evaluated" in text
+    last = {d["method"]: d for d in r.summary if d["horizon"] == pytest.approx(4.8)}
+    # every method over the same tracklets; the paper's samples stop, the others do not
+    assert last["cliff"]["people"] == last["cvm-last"]["people"] == last["motion"]["people"]
+    assert last["motion"]["reach"] == 1.0 and last["cliff"]["reach"] < 1.0
+    want = {row["method"]: row for row in read_csv(out / "summary.csv") if row["horizon"] == "4.8"}
+    for m in ("cliff", "cvm-last", "motion"):
+        assert last[m]["top1_ade"] == pytest.approx(float(want[m]["top1_ade"]), abs=6e-7)

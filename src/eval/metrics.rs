@@ -15,7 +15,7 @@
 
 use glam::DVec2;
 
-use super::protocol::Case;
+use super::protocol::case::Case;
 use crate::predict::Point;
 
 /// Errors of one person at one step.

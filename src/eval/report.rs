@@ -14,7 +14,7 @@ use rayon::prelude::*;
 use super::metrics::{Scratch, StepErrors, person_errors};
 use super::protocol::{Case, Settings, prepare_all};
 use crate::map::{CliffMap, MapAt};
-use crate::motion::{History, MotionModel};
+use crate::motion::MotionModel;
 use crate::predict::{Method, Options, Params, PredictError, Rollout, TrajectoryBatch};
 use crate::tracks::Track;
 
@@ -148,15 +148,8 @@ fn run_case(
     w: &mut Worker,
 ) -> Result<PersonResult, PredictError> {
     let dt = cfg.settings.dt;
-    // the observed rows up to the start row, for the methods that read the history
-    let start_row = crate::tracks::Row {
-        t: case.start.time,
-        position: case.start.position,
-        speed: case.start.speed,
-        angle: case.start.heading,
-    };
-    let rows: Vec<_> = case.observed.iter().copied().chain([start_row]).collect();
-    let history = History::from_rows(&rows).unwrap_or_else(|_| History::from_state(&case.start));
+    // for the methods that read the observed path
+    let history = case.history();
     let mut res = Vec::with_capacity(cfg.methods.len());
     for &method in &cfg.methods {
         let mut per_seed = Vec::new();

@@ -144,16 +144,6 @@ impl MotionModel {
         })
     }
 
-    /// The built-in model, fitted on ATC's training hours (13,400 people crossing a
-    /// shopping-mall hall, tracked at 1 Hz; `cliff motion fit --help` shows the command
-    /// that reproduces it). It knows people who walk on through an open hall: in a room
-    /// where people stop and turn within seconds (THÖR-MAGNI's) it does worse than
-    /// constant velocity, and a model fitted on the site's own tracks does better
-    /// (docs/accuracy.md).
-    pub fn builtin() -> &'static MotionModel {
-        super::model_builtin::builtin()
-    }
-
     /// Grid steps the model forecasts ([`MODEL_DT`] each) before it goes on at its last
     /// step's velocity.
     pub fn steps(&self) -> usize {

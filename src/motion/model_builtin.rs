@@ -11,10 +11,18 @@ use super::model::MotionModel;
 /// The built-in model's file bytes.
 pub const BUILTIN_MOTION_BYTES: &[u8] = include_bytes!("builtin.motion");
 
-pub(super) fn builtin() -> &'static MotionModel {
-    static MODEL: OnceLock<MotionModel> = OnceLock::new();
-    MODEL.get_or_init(|| {
-        MotionModel::decode(BUILTIN_MOTION_BYTES, "the built-in motion model")
-            .expect("the built-in motion model is checked by its test")
-    })
+impl MotionModel {
+    /// The built-in model, fitted on ATC's training hours (13,400 people crossing a
+    /// shopping-mall hall, tracked at 1 Hz; `cliff motion fit --help` shows the command
+    /// that reproduces it). It knows people who walk on through an open hall: in a room
+    /// where people stop and turn within seconds (THÖR-MAGNI's) it does worse than
+    /// constant velocity, and a model fitted on the site's own tracks does better
+    /// (docs/motion.md).
+    pub fn builtin() -> &'static MotionModel {
+        static MODEL: OnceLock<MotionModel> = OnceLock::new();
+        MODEL.get_or_init(|| {
+            MotionModel::decode(BUILTIN_MOTION_BYTES, "the built-in motion model")
+                .expect("the built-in motion model is checked by its test")
+        })
+    }
 }

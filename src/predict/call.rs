@@ -5,7 +5,10 @@
 use super::candidates::{Candidates, rank};
 use super::cvm::{cvm_score, roll_cvm};
 use super::lanes::{ANY, Extras, Lane, Lanes, PAPER, SPEED};
-use super::motion::{last_displacement, motion_score, roll_motion, sample_normal};
+use super::motion::{
+    bend_to_motion, last_displacement, map_trust, motion_path, motion_score, roll_motion,
+    sample_normal,
+};
 use super::seeds::agent_key;
 use super::{BatchMut, Method, Params, Point};
 use crate::map::{CliffMap, NeighbourTable};
@@ -116,8 +119,8 @@ impl Call<'_, '_> {
         let Call {
             map,
             agents,
-            histories: _,
-            motion: _,
+            histories,
+            motion,
             params,
             extras,
             seed,
@@ -159,9 +162,32 @@ impl Call<'_, '_> {
             let lens = &mut out.lens[a * k..(a + 1) * k];
             let agent_scores = scores.as_deref_mut().map(|s| &mut s[a * k..(a + 1) * k]);
             let key = agent_key(seed, first_agent + a as u64);
+            // the samples bent towards the motion model (`motion.rs`)
+            let bend = |tracks: &mut [Point], lens: &mut [u32], path: &mut Vec<_>| {
+                let observed = &agents[a];
+                let history = match histories {
+                    Some(h) => h[a],
+                    None => History::from_state(observed),
+                };
+                motion_path(&motion.forecast(&history), params.dt, steps, path);
+                let step = DVec2::from_angle(observed.heading) * (observed.speed * params.dt);
+                bend_to_motion(
+                    path,
+                    map_trust(map, &near, &history),
+                    (observed.position, step),
+                    params.dt,
+                    extras.blend,
+                    key,
+                    tracks,
+                    lens,
+                );
+            };
             if c == 1 {
                 let agent_scores = agent_scores.unwrap_or(&mut []);
                 lanes.roll_agent::<MOTION, SCORES>(key, tracks, lens, agent_scores);
+                if extras.motion {
+                    bend(tracks, lens, &mut scratch.motion_path);
+                }
                 if extras.consensus && !agent_scores.is_empty() {
                     consensus(tracks, lens, agent_scores, &mut scratch.centre, extras.simd);
                 }
@@ -192,6 +218,9 @@ impl Call<'_, '_> {
                 tracks[s * steps..(s + 1) * steps]
                     .copy_from_slice(&scratch.tracks[i * steps..(i + 1) * steps]);
                 lens[s] = scratch.lens[i];
+            }
+            if extras.motion {
+                bend(tracks, lens, &mut scratch.motion_path);
             }
             if let Some(out_scores) = agent_scores {
                 if extras.consensus {

@@ -25,6 +25,10 @@ pub(super) struct Candidates {
     pub(super) flow: FlowMemo,
     /// The order of the flow walks at a checkpoint (scratch).
     pub(super) walk_order: Vec<u64>,
+    /// The motion model's path at each step of a call: its mean (x, y) and the world
+    /// frame's spread factor (`[a, b, c, d]`: `z` moves it by `(a z0 + b z1, c z0 +
+    /// d z1)`) (`Options::motion`).
+    pub(super) motion_path: Vec<([f64; 2], [f64; 4])>,
 }
 
 thread_local! {

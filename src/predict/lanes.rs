@@ -30,6 +30,9 @@ pub(super) struct Extras {
     pub(super) trust: f64,
     /// [`Options::blend`](super::Options::blend), seconds (0: off).
     pub(super) blend: f64,
+    /// [`Options::motion`](super::Options::motion): the samples bent towards the motion
+    /// model after the rollout.
+    pub(super) motion: bool,
     /// Scores by [`Rank::Consensus`](super::Rank::Consensus) instead of likelihood.
     pub(super) consensus: bool,
     /// The instructions the loop runs on (an available path: [`Simd::available`]).

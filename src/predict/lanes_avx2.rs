@@ -480,6 +480,7 @@ pub(super) mod tests {
             speed_prior: None,
             trust: 0.0,
             blend: 0.0,
+            motion: false,
             consensus: false,
             simd: Simd::Avx2Fma,
         };

@@ -458,6 +458,7 @@ mod tests {
                         speed_prior: None,
                         trust,
                         blend,
+                        motion: false,
                         consensus: false,
                         simd: Simd::Avx2Fma,
                     };

@@ -1,5 +1,6 @@
-//! The motion model's samples ([`Method::Motion`](super::Method::Motion)) and constant
-//! velocity of the last displacement ([`Method::CvmLast`](super::Method::CvmLast)).
+//! The motion model's samples ([`Method::Motion`](super::Method::Motion)), constant
+//! velocity of the last displacement ([`Method::CvmLast`](super::Method::CvmLast)), and
+//! the map's samples bent towards the motion model ([`Options::motion`](super::Options::motion)).
 //!
 //! A motion sample walks the model's [`Forecast`] on a path of its own: sample `s` of
 //! an agent draws a standard normal pair `z` from its generator (keyed as every
@@ -8,10 +9,25 @@
 //! first sample (`s = 0`) is the expected path (`z = 0`). Its score is the log-density of
 //! `z`, `-|z|^2 / 2`, so the best-ranked sample is the expected path. Every sample
 //! reaches the horizon.
+//!
+//! With [`Options::motion`](super::Options::motion), a CLiFF-LHMP sample `S` of a person
+//! (rolled as the options say) becomes `M + q (S' - M)`: `M` is the motion model's path
+//! on the sample's own normal pair (`z`, drawn as a motion sample's), `S'` the map's
+//! sample with the blend ([`Options::blend`](super::Options::blend)) leaving `M` instead
+//! of constant velocity's line and, past the step where the sample stopped (the map had
+//! no data there), going on by `M`'s steps; `q` is the share of the person's observed
+//! moving steps (0.4 s steps over 0.2 m/s in their history) whose velocity the map at
+//! that place explains better than a uniform velocity would
+//! ([`NO_LOCATION_LOG_DENSITY`]): 0 where the map has no location near them or points
+//! elsewhere, 1 where it explains every step. So where the map is wrong or missing the
+//! samples are the motion model's, and where it is right they are the map's, starting
+//! from the motion model near the present. Every sample reaches the horizon.
 
 use glam::DVec2;
 
 use super::Point;
+use super::options::NO_LOCATION_LOG_DENSITY;
+use crate::map::CliffMap;
 use crate::math::lane_rng::{LaneRngs, lane_seed, normal_f32_with};
 use crate::math::simd::Separate;
 use crate::motion::{Forecast, History, MODEL_DT, State};
@@ -54,5 +70,114 @@ pub(super) fn last_displacement(state: &State, history: &History) -> State {
         speed: v.length(),
         heading: crate::math::wrap_2pi(v.y.atan2(v.x)),
         ..*state
+    }
+}
+
+/// Observed steps slower than this (m/s) are a person standing: no evidence for or
+/// against the map.
+const MOVING: f64 = 0.2;
+
+/// The share of the person's observed moving steps that the map explains better than a
+/// uniform velocity (0 with none moving): how far the map bends the motion model.
+pub(super) fn map_trust(
+    map: &CliffMap,
+    near: &impl Fn(DVec2) -> Option<usize>,
+    history: &History,
+) -> f64 {
+    let p = history.points();
+    let (mut moving, mut explained) = (0u32, 0u32);
+    for w in p.windows(2) {
+        let v = (w[1] - w[0]) / MODEL_DT;
+        let speed = v.length();
+        if speed < MOVING {
+            continue;
+        }
+        moving += 1;
+        let mid = (w[0] + w[1]) * 0.5;
+        if let Some(i) = near(mid) {
+            let heading = crate::math::wrap_2pi(v.y.atan2(v.x));
+            if map.log_density(i, heading, speed) > NO_LOCATION_LOG_DENSITY {
+                explained += 1;
+            }
+        }
+    }
+    if moving == 0 {
+        0.0
+    } else {
+        f64::from(explained) / f64::from(moving)
+    }
+}
+
+/// The motion model's path at the call's steps into `path` (mean, and the world frame's
+/// spread factor).
+pub(super) fn motion_path(
+    forecast: &Forecast<'_>,
+    dt: f64,
+    steps: usize,
+    path: &mut Vec<([f64; 2], [f64; 4])>,
+) {
+    path.clear();
+    for j in 0..steps {
+        let t = (j + 1) as f64 * dt;
+        let m = forecast.position(t, DVec2::ZERO);
+        let a = forecast.position(t, DVec2::X) - m;
+        let b = forecast.position(t, DVec2::Y) - m;
+        path.push(([m.x, m.y], [a.x, b.x, a.y, b.y]));
+    }
+}
+
+/// Bend one agent's samples (`tracks`, `lens`: `k` samples of `steps`) towards the
+/// motion model (see the [module documentation](self)): every sample then reaches the
+/// horizon. `cv` is the constant-velocity line the blend left (its start, its step),
+/// `blend` the blend's seconds (0: none), `key` the agent's key.
+#[allow(clippy::too_many_arguments)]
+pub(super) fn bend_to_motion(
+    path: &[([f64; 2], [f64; 4])],
+    trust: f64,
+    cv: (DVec2, DVec2),
+    dt: f64,
+    blend: f64,
+    key: u64,
+    tracks: &mut [Point],
+    lens: &mut [u32],
+) {
+    let steps = path.len();
+    for (s, (track, len)) in tracks
+        .chunks_exact_mut(steps)
+        .zip(lens.iter_mut())
+        .enumerate()
+    {
+        let z = sample_normal(key, s);
+        let at = |j: usize| {
+            let (m, f) = path[j];
+            DVec2::new(
+                m[0] + f[0] * z.x + f[1] * z.y,
+                m[1] + f[2] * z.x + f[3] * z.y,
+            )
+        };
+        let reached = (*len as usize).min(steps);
+        let mut last = DVec2::ZERO;
+        for (j, out) in track.iter_mut().enumerate() {
+            let m = at(j);
+            let sample = if j < reached {
+                let p = DVec2::new(out[0] as f64, out[1] as f64);
+                if blend > 0.0 {
+                    // the blend's weight on the line at this step, moved onto the model
+                    let w = (-(j as f64) * dt / blend).exp();
+                    let line = cv.0 + cv.1 * (j + 1) as f64;
+                    p + (m - line) * w
+                } else {
+                    p
+                }
+            } else if j == 0 {
+                m
+            } else {
+                last + (m - at(j - 1))
+            };
+            last = sample;
+            let p = m + (sample - m) * trust;
+            *out = [p.x as f32, p.y as f32];
+        }
+        *len = steps as u32;
     }
 }

@@ -119,6 +119,11 @@ pub struct Options {
     /// What the scores rank: the likelihood under the map (the default) or the
     /// agreement with the other samples ([`Rank::Consensus`]).
     pub rank: Rank,
+    /// Start from the learned motion model instead of constant velocity: the blend
+    /// ([`Options::blend`]) leaves the model's path, a sample that stops (where the map
+    /// has no data) goes on with the model, and the map bends the model's samples as far
+    /// as it explains the person's observed steps (see `predict/motion.rs`).
+    pub motion: bool,
 }
 
 /// What a sample's score ([`Options::scores`]) measures, and so which sample
@@ -162,6 +167,7 @@ impl Options {
             && self.trust == 0.0
             && self.blend == 0.0
             && self.rank == Rank::Likelihood
+            && !self.motion
     }
 
     /// How many times the paper's work a call with these options does, at most: 2 with

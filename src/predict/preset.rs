@@ -78,6 +78,7 @@ pub const IMPROVED: Preset = Preset {
         trust: 0.5,
         blend: 3.0,
         rank: Rank::Consensus,
+        motion: false,
     },
 };
 

@@ -216,6 +216,7 @@ mod tests {
             speed_prior: None,
             trust: 0.5,
             blend: 3.0,
+            motion: false,
             consensus: false,
             simd: Simd::active(),
         };

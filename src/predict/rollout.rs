@@ -271,6 +271,7 @@ impl Rollout {
             },
             trust: options.trust,
             blend: options.blend,
+            motion: options.motion,
             consensus: options.rank == super::Rank::Consensus,
             simd: self.simd,
         };

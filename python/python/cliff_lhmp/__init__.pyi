@@ -212,4 +212,6 @@ def evaluate(
     sigma: float = 1.5,
     heading: str = "circular-mean",
     topic: Optional[str] = None,
+    count: str = "reached",
+    max_speed: Optional[float] = None,
 ) -> Evaluation: ...

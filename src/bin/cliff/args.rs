@@ -117,6 +117,11 @@ pub struct PredictionArgs {
     /// (the sample nearest the samples' mean path, among those reaching furthest).
     #[arg(long, default_value = "likelihood", value_parser = parse_rank)]
     pub rank: Rank,
+    /// Motion (beyond the paper): start from the learned motion model instead of
+    /// constant velocity; a sample that stops goes on with the model, and the map bends
+    /// the model's samples as far as it explains the person's observed steps.
+    #[arg(long)]
+    pub motion: bool,
 }
 
 fn parse_rank(s: &str) -> Result<Rank, String> {
@@ -157,6 +162,7 @@ impl PredictionArgs {
             trust: self.trust,
             blend: self.blend,
             rank: self.rank,
+            motion: self.motion,
         }
     }
 

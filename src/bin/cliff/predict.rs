@@ -39,8 +39,8 @@ pub struct PredictArgs {
     pub person: u64,
     #[command(flatten)]
     pub prediction: PredictionArgs,
-    /// Method: cliff, cvm or improved (CLiFF-LHMP with the project's preset: its own
-    /// beta and options).
+    /// Method: cliff, cvm, improved (CLiFF-LHMP with the project's preset: its own
+    /// beta and options), motion (the built-in motion model) or cvm-last.
     #[arg(long, default_value = "cliff")]
     pub method: Method,
     /// Random seed.

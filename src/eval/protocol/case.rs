@@ -3,7 +3,7 @@
 
 use glam::DVec2;
 
-use crate::motion::State;
+use crate::motion::{History, State};
 use crate::tracks::Row;
 
 /// One person prepared for evaluation.
@@ -31,6 +31,20 @@ impl Case {
     /// rows; `None` outside the future rows.
     pub fn truth_at(&self, t: f64) -> Option<DVec2> {
         interpolate(&self.future, t)
+    }
+
+    /// The person's observed path up to the start, on the motion model's grid (the
+    /// observed rows and the start row; the start state's constant-velocity path if the
+    /// rows give none).
+    pub fn history(&self) -> History {
+        let start = Row {
+            t: self.start.time,
+            position: self.start.position,
+            speed: self.start.speed,
+            angle: self.start.heading,
+        };
+        let rows: Vec<Row> = self.observed.iter().copied().chain([start]).collect();
+        History::from_rows(&rows).unwrap_or_else(|_| History::from_state(&self.start))
     }
 
     /// The number a prediction's seed is mixed with: the person id, and for a window

@@ -123,8 +123,16 @@ fn tracklet_case(id: u64, rows: &[Row], obs: usize, s: &Settings, number: u32) -
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::eval::protocol::{Protocol, prepare_all};
+    use crate::eval::protocol::settings::Protocol;
     use glam::DVec2;
+
+    fn prepare_all(tracks: &[Track], s: &Settings) -> Vec<Case> {
+        let mut out = Vec::new();
+        for t in tracks {
+            tracklets_of(t, s, &mut out);
+        }
+        out
+    }
 
     fn settings() -> Settings {
         Settings {
