@@ -103,7 +103,11 @@ impl MotionModel {
             ));
         }
         for (j, w) in weights.iter().enumerate() {
-            if let Some(v) = w.iter().flatten().find(|v| !(v.abs() <= MAX_COEFFICIENT)) {
+            if let Some(v) = w
+                .iter()
+                .flatten()
+                .find(|v| !v.is_finite() || v.abs() > MAX_COEFFICIENT)
+            {
                 return bad(format!(
                     "step {}: coefficient {v} is not a number within {MAX_COEFFICIENT}",
                     j + 1

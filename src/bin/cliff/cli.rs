@@ -127,7 +127,7 @@ pub enum MotionCommand {
     /// The built-in model (src/motion/builtin.motion) is made by:
     /// cliff motion fit --tracks ../shared/data/atc/train/*.csv --format atc
     ///   --out src/motion/builtin.motion
-    Fit(FitArgs),
+    Fit(Box<FitArgs>),
     /// Show what a motion model file holds (without a file: the built-in model).
     Info(MotionInfoArgs),
 }

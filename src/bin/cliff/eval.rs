@@ -114,7 +114,7 @@ pub fn run(a: EvalArgs) -> Result<()> {
     let mut settings = a.prediction.settings();
     settings.counting = a.count;
     if let Some(v) = a.max_speed {
-        if !(v > 0.0) {
+        if v.is_nan() || v <= 0.0 {
             bail!("--max-speed {v} is not a positive speed");
         }
         settings.max_speed = v;

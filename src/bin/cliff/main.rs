@@ -60,7 +60,7 @@ fn main() -> std::process::ExitCode {
         Command::Map(MapCommand::Score(a)) => map::score::run(a),
         Command::Map(MapCommand::Update(a)) => map::update::run(a),
         Command::Map(MapCommand::Diff(a)) => map::diff::run(a),
-        Command::Motion(MotionCommand::Fit(a)) => motion::fit::run(a),
+        Command::Motion(MotionCommand::Fit(a)) => motion::fit::run(*a),
         Command::Motion(MotionCommand::Info(a)) => motion::info::run(a),
         Command::Eval(a) => eval::run(a),
         Command::Predict(a) => predict::run(a),
