@@ -4,7 +4,7 @@
 
 use glam::DVec2;
 
-use super::build::{Gauss2, floor_eigenvalues};
+use super::stats::{Gauss2, floor_eigenvalues};
 use super::density;
 use super::error::MapError;
 use super::grid::GridIndex;

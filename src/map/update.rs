@@ -63,11 +63,12 @@ use glam::DVec2;
 use rayon::prelude::*;
 
 use super::build::{
-    BuildError, BuildParams, Built, FitParams, Gauss2, Lattice, Observation, build_map,
-    check_observations, eig_sym, fit_mixture, floor_eigenvalues, split,
+    BuildError, BuildParams, Built, FitParams, Lattice, Observation, build_map,
+    check_observations, fit_mixture, split,
 };
 use super::mixture::{cap_components, merge_near_duplicates};
 use super::movement::total_variation;
+use super::stats::{Gauss2, eig_sym, floor_eigenvalues};
 use super::{CliffMap, Component, Location, MapError};
 use crate::math::{wrap_2pi, wrap_pi};
 use crate::motion::SpeedPrior;

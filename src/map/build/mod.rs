@@ -24,15 +24,14 @@
 
 mod em;
 mod mean_shift;
-mod stats;
 
 use glam::DVec2;
 use rayon::prelude::*;
 
 pub use em::{EmComponent, EmOutcome, EmParams, em};
 pub use mean_shift::{Bandwidth, Centre, MeanShift, Seekers, group, seek_modes};
-pub use stats::{CircularLinearStats, Gauss2, eig_sym, floor_eigenvalues, log_sum_exp};
 
+use super::stats::CircularLinearStats;
 use super::{CliffMap, Component, Location, MapError};
 use crate::math::wrap_2pi;
 use crate::tracks::Track;
