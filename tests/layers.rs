@@ -736,37 +736,37 @@ fn synthetic_graph(tree: &[(&str, &str)]) -> Graph {
 /// from `learn/settings.rs`; `learn/mod.rs` imports `settings.rs` back.
 #[test]
 fn the_checker_finds_a_circle_through_a_re_export() {
-    let tree = |settings: &str| {
+    let tree = |settings: &str, re_export: &str| {
+        let learn = format!(
+            "mod settings;\nuse crate::settings::StartError;\n{re_export}\n\
+             pub fn start() -> Result<(), StartError> {{ Ok(()) }}\n"
+        );
         synthetic_graph(&[
             (
                 "lib.rs",
                 "mod learn;\nmod settings;\npub use settings::Settings;\n",
             ),
             ("settings.rs", settings),
-            (
-                "learn/mod.rs",
-                "mod settings;\nuse crate::settings::StartError;\n\
-                 pub use settings::LearnSettings;\n\
-                 pub fn start() -> Result<(), StartError> { Ok(()) }\n",
-            ),
+            ("learn/mod.rs", &learn),
             ("learn/settings.rs", "pub struct LearnSettings;\n"),
         ])
     };
-    let g = tree(
-        "pub struct Settings { pub learn: crate::learn::LearnSettings }\npub struct StartError;\n",
-    );
-    let found = circles(&g);
-    assert_eq!(
-        found,
-        [
-            "settings.rs -> learn/mod.rs -> settings.rs (files of the circle: settings.rs, learn/mod.rs)"
-        ],
-        "the circle through learn/mod.rs's re-export"
-    );
-    // the import still reaches the file that defines the type
-    let file = |p: &str| g.files.iter().position(|f| f.path == Path::new(p)).unwrap();
-    assert!(g.edges[&file("settings.rs")].contains(&file("learn/settings.rs")));
-    // without the import back there is no circle
-    let g = tree("pub struct Settings;\npub struct StartError;\n");
-    assert!(circles(&g).is_empty(), "{:?}", circles(&g));
+    let importer =
+        "pub struct Settings { pub learn: crate::learn::LearnSettings }\npub struct StartError;\n";
+    for re_export in ["pub use settings::LearnSettings;", "pub use settings::*;"] {
+        let g = tree(importer, re_export);
+        assert_eq!(
+            circles(&g),
+            [
+                "settings.rs -> learn/mod.rs -> settings.rs (files of the circle: settings.rs, learn/mod.rs)"
+            ],
+            "the circle through learn/mod.rs's `{re_export}`"
+        );
+        // the import still reaches the file that defines the type
+        let file = |p: &str| g.files.iter().position(|f| f.path == Path::new(p)).unwrap();
+        assert!(g.edges[&file("settings.rs")].contains(&file("learn/settings.rs")));
+        // without the import back there is no circle
+        let g = tree("pub struct Settings;\npub struct StartError;\n", re_export);
+        assert!(circles(&g).is_empty(), "{:?}", circles(&g));
+    }
 }
