@@ -4,10 +4,12 @@
 //! Each `use` tree and each `crate::`/`super::`/`self::` path in a file's code (unit
 //! tests included; comments and strings are not code) is resolved to the file that
 //! defines what it names: `crate::map::grid::GridIndex` names `src/map/grid.rs`, and
-//! `crate::map::CliffMap` names the file that `src/map/mod.rs` re-exports it from. The
-//! re-exports of a module's front file (`lib.rs`, `main.rs`, `mod.rs`) are its face, not
-//! imports of its own; anything else a front file's code uses is an import like any
-//! other.
+//! `crate::map::CliffMap` names the file that `src/map/mod.rs` re-exports it from, and
+//! `src/map/mod.rs` itself, whose re-export the name goes through. The re-exports of a
+//! module's front file (`lib.rs`, `main.rs`, `mod.rs`) are its face, not imports of its
+//! own; anything else a front file's code uses is an import like any other, so a front
+//! file that imports a file which takes a name through that front's re-exports closes a
+//! circle.
 //!
 //! The core library's layers, lowest first (see docs/architecture.md):
 //! `math` and `bounded_read`, `tracks`, `motion`, `map`, `predict`, `eval`, `plot`.
@@ -446,10 +448,21 @@ fn defines(code: &str, name: &str) -> bool {
     })
 }
 
-/// The file (index into `files`) that defines what `path` names: the deepest module
-/// of the path, followed through the re-exports of module front files.
-fn resolve(files: &[ModFile], fronts: &[ReExports], codes: &[String], path: &[String]) -> usize {
+/// The files (indices into `files`) that what `path` names depends on: first the file
+/// that defines it (the deepest module of the path, followed through the re-exports of
+/// module front files), then every front file whose re-export the path went through. A
+/// name taken through a front file depends on that front file too: its re-export is
+/// what the name resolves by, so a front file that imports the importer back closes a
+/// circle (`settings.rs` names `crate::learn::LearnSettings`, re-exported by
+/// `learn/mod.rs`, which imports `crate::settings::StartError`).
+fn resolve(
+    files: &[ModFile],
+    fronts: &[ReExports],
+    codes: &[String],
+    path: &[String],
+) -> Vec<usize> {
     let mut path = path.to_vec();
+    let mut through = Vec::new();
     for _ in 0..16 {
         let (n, i) = (0..=path.len())
             .rev()
@@ -460,13 +473,17 @@ fn resolve(files: &[ModFile], fronts: &[ReExports], codes: &[String], path: &[St
                     .map(|i| (n, i))
             })
             .expect("the crate root matches every path");
-        let Some(name) = path.get(n) else { return i };
+        let done = |through: Vec<usize>| std::iter::once(i).chain(through).collect();
+        let Some(name) = path.get(n) else {
+            return done(through);
+        };
         if let Some((_, to)) = fronts[i].named.iter().find(|(nm, _)| nm == name) {
             let mut next = to.clone();
             next.extend(path[n + 1..].iter().cloned());
             if next == path {
-                return i;
+                return done(through);
             }
+            through.push(i);
             path = next;
             continue;
         }
@@ -480,9 +497,10 @@ fn resolve(files: &[ModFile], fronts: &[ReExports], codes: &[String], path: &[St
             Some(g) => {
                 let mut next = g.clone();
                 next.extend(path[n..].iter().cloned());
+                through.push(i);
                 path = next;
             }
-            None => return i,
+            None => return done(through),
         }
     }
     panic!("re-exports of {path:?} go round in a circle")
@@ -499,17 +517,23 @@ fn graph(c: &CrateSrc) -> Graph {
         .iter()
         .map(|f| code_only(&std::fs::read_to_string(&f.path).unwrap()))
         .collect();
+    graph_of(files, &codes)
+}
+
+/// The import graph of `files`, whose code (comments and strings blanked) is `codes`.
+fn graph_of(files: Vec<ModFile>, codes: &[String]) -> Graph {
     let fronts: Vec<ReExports> = files
         .iter()
-        .zip(&codes)
+        .zip(codes)
         .map(|(f, c)| re_exports(f, c))
         .collect();
     let mut edges: BTreeMap<usize, BTreeSet<usize>> = BTreeMap::new();
     for (i, f) in files.iter().enumerate() {
         for p in imports(f, &codes[i]) {
-            let j = resolve(&files, &fronts, &codes, &p);
-            if j != i {
-                edges.entry(i).or_default().insert(j);
+            for j in resolve(&files, &fronts, codes, &p) {
+                if j != i {
+                    edges.entry(i).or_default().insert(j);
+                }
             }
         }
     }
@@ -680,4 +704,69 @@ fn the_checker_resolves_use_trees_and_paths() {
     .map(|v| v.iter().map(|s| s.to_string()).collect())
     .collect();
     assert_eq!(got, want);
+}
+
+/// A small tree of files for the checker's own tests: `(path, code)`, the path relative
+/// to the crate's `src` (`lib.rs`, `a.rs`, `b/mod.rs`, `b/c.rs`), the module it defines
+/// taken from the path.
+fn synthetic_graph(tree: &[(&str, &str)]) -> Graph {
+    let files: Vec<ModFile> = tree
+        .iter()
+        .map(|(path, _)| {
+            let mut module: Vec<String> = path
+                .trim_end_matches(".rs")
+                .split('/')
+                .map(String::from)
+                .collect();
+            if matches!(module.last().map(String::as_str), Some("lib" | "mod")) {
+                module.pop();
+            }
+            ModFile {
+                path: PathBuf::from(path),
+                module,
+            }
+        })
+        .collect();
+    let codes: Vec<String> = tree.iter().map(|(_, code)| code_only(code)).collect();
+    graph_of(files, &codes)
+}
+
+/// The checker itself: a circle closed through a front file's re-export is a circle.
+/// `settings.rs` names `crate::learn::LearnSettings`, which `learn/mod.rs` re-exports
+/// from `learn/settings.rs`; `learn/mod.rs` imports `settings.rs` back.
+#[test]
+fn the_checker_finds_a_circle_through_a_re_export() {
+    let tree = |settings: &str, re_export: &str| {
+        let learn = format!(
+            "mod settings;\nuse crate::settings::StartError;\n{re_export}\n\
+             pub fn start() -> Result<(), StartError> {{ Ok(()) }}\n"
+        );
+        synthetic_graph(&[
+            (
+                "lib.rs",
+                "mod learn;\nmod settings;\npub use settings::Settings;\n",
+            ),
+            ("settings.rs", settings),
+            ("learn/mod.rs", &learn),
+            ("learn/settings.rs", "pub struct LearnSettings;\n"),
+        ])
+    };
+    let importer =
+        "pub struct Settings { pub learn: crate::learn::LearnSettings }\npub struct StartError;\n";
+    for re_export in ["pub use settings::LearnSettings;", "pub use settings::*;"] {
+        let g = tree(importer, re_export);
+        assert_eq!(
+            circles(&g),
+            [
+                "settings.rs -> learn/mod.rs -> settings.rs (files of the circle: settings.rs, learn/mod.rs)"
+            ],
+            "the circle through learn/mod.rs's `{re_export}`"
+        );
+        // the import still reaches the file that defines the type
+        let file = |p: &str| g.files.iter().position(|f| f.path == Path::new(p)).unwrap();
+        assert!(g.edges[&file("settings.rs")].contains(&file("learn/settings.rs")));
+        // without the import back there is no circle
+        let g = tree("pub struct Settings;\npub struct StartError;\n", re_export);
+        assert!(circles(&g).is_empty(), "{:?}", circles(&g));
+    }
 }

@@ -361,7 +361,7 @@ fn predictions_with_the_built_map_are_as_good_as_with_the_shipped_map() {
 /// (samples of `(p + q) / 2`, covariance eigenvalues floored at 1e-4 as the measure
 /// defines): independent of the library's quadrature.
 fn monte_carlo_tv(a: &[cliff::map::Component], b: &[cliff::map::Component], seed: u64) -> f64 {
-    use cliff::map::build::floor_eigenvalues;
+    use cliff::map::stats::floor_eigenvalues;
     // (weight, theta, rho, covariance, inverse, normalising constant)
     type Part = (f64, f64, f64, [f64; 4], [f64; 3], f64);
     let prep = |cs: &[cliff::map::Component]| -> Vec<Part> {

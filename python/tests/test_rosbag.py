@@ -65,8 +65,9 @@ def test_map_build_from_a_bag_is_the_map_of_its_rows(tmp_path, thor1_bag, thor1_
     assert from_bag.read_bytes() == from_csv.read_bytes()
     # and the map of the THÖR file itself: the same locations and components, the values
     # equal to rounding: a speed and angle turned into a velocity vector and back do not
-    # give every float back (bags.velocity), and the bag holds people by time, the file
-    # by person (which orders the sums)
+    # give every float back (bags.velocity); that the bag holds people by time and the
+    # file by person does not matter (each location's samples are fitted in one
+    # canonical order)
     thor = tmp_path / "thor.csv"
     run_cli("map", "build", "--tracks", str(THOR1_TRACKS), "--format", "thor", *BUILD,
             "--out", str(thor))

@@ -4,8 +4,9 @@
 //! iceoryx2 request-response service (protocol: [`cliff_client::protocol`]). The crate's
 //! parts:
 //!
-//! * `settings.rs`: what a daemon serves and its limits ([`Settings`], [`MapSpec`],
-//!   [`StartError`]);
+//! * `settings/`: what a daemon serves and its limits ([`Settings`], [`MapSpec`],
+//!   [`StartError`]) and what a learning daemon learns and how
+//!   ([`LearnSettings`](learn::LearnSettings));
 //! * `registry.rs`: the map registry: maps, their radius limits and neighbour tables
 //!   (built at load, on reload and by a background thread, never on the serving thread),
 //!   and reloads on their own thread;

@@ -67,53 +67,61 @@ impl SpeedPrior {
     pub fn fit(tracks: &[Track], obs: f64, dt: f64) -> Option<SpeedPrior> {
         let mut line = Line::default();
         people_pairs(tracks, obs, dt, &mut line);
-        if line.n >= MIN_PAIRS {
+        if line.n() >= MIN_PAIRS {
             return line.prior();
         }
         let mut line = Line::default();
         window_pairs(tracks, obs, dt, &FIT_HORIZONS, &mut line);
-        if line.n < MIN_PAIRS {
+        if line.n() < MIN_PAIRS {
             window_pairs(tracks, obs, dt, &SHORT_FIT_HORIZONS, &mut line);
         }
         line.prior()
     }
 }
 
-/// Sums for a least-squares line through (start speed, speed ahead) pairs.
+/// The (start speed, speed ahead) pairs of a least-squares line.
 #[derive(Debug, Default)]
 struct Line {
-    n: usize,
-    sx: f64,
-    sy: f64,
-    sxx: f64,
-    sxy: f64,
+    pairs: Vec<(f64, f64)>,
 }
 
 impl Line {
     fn add(&mut self, v0: f64, ahead: f64) {
         let walking = |v: f64| v.is_finite() && (0.0..=MAX_PRIOR_SPEED).contains(&v);
-        if !(walking(v0) && walking(ahead)) {
-            return;
+        if walking(v0) && walking(ahead) {
+            self.pairs.push((v0, ahead));
         }
-        self.n += 1;
-        self.sx += v0;
-        self.sy += ahead;
-        self.sxx += v0 * v0;
-        self.sxy += v0 * ahead;
+    }
+
+    /// The number of pairs.
+    fn n(&self) -> usize {
+        self.pairs.len()
     }
 
     /// The prior of the line; `None` with fewer than [`MIN_PAIRS`] pairs or every start
-    /// speed alike.
-    fn prior(&self) -> Option<SpeedPrior> {
-        if self.n < MIN_PAIRS {
+    /// speed alike. The pairs are summed in one canonical order (by the bits of the
+    /// start speed, then of the speed ahead), so the same tracks in any order give the
+    /// same prior, bit for bit.
+    fn prior(mut self) -> Option<SpeedPrior> {
+        if self.n() < MIN_PAIRS {
             return None;
         }
-        let (nf, sx, sy) = (self.n as f64, self.sx, self.sy);
-        let var = self.sxx / nf - (sx / nf).powi(2);
+        // speeds are not negative: their bits order them as numbers
+        self.pairs
+            .sort_unstable_by_key(|&(v0, ahead)| (v0.to_bits(), ahead.to_bits()));
+        let (mut sx, mut sy, mut sxx, mut sxy) = (0.0, 0.0, 0.0, 0.0);
+        for &(v0, ahead) in &self.pairs {
+            sx += v0;
+            sy += ahead;
+            sxx += v0 * v0;
+            sxy += v0 * ahead;
+        }
+        let nf = self.n() as f64;
+        let var = sxx / nf - (sx / nf).powi(2);
         if var.is_nan() || var <= 1e-6 {
             return None;
         }
-        let slope = (self.sxy / nf - sx / nf * sy / nf) / var;
+        let slope = (sxy / nf - sx / nf * sy / nf) / var;
         let keep = slope.clamp(0.0, 1.0);
         // fixed point of v -> intercept + keep v; with keep 1 the mean does not matter
         let mean = if keep < 1.0 {
@@ -124,7 +132,7 @@ impl Line {
         let prior = SpeedPrior {
             mean: mean.clamp(0.1, MAX_PRIOR_SPEED),
             keep,
-            pairs: self.n as u64,
+            pairs: self.n() as u64,
         };
         prior.validate().ok().map(|_| prior)
     }

@@ -4,7 +4,6 @@
 
 use glam::DVec2;
 
-use super::build::{Gauss2, floor_eigenvalues};
 use super::density;
 use super::error::MapError;
 use super::grid::GridIndex;
@@ -14,6 +13,7 @@ use super::sampling_tables::{
     DirectionComponent, FollowBlock, LaneTables, SpeedComponent, follow_blocks, pad_components,
     pad_with,
 };
+use super::stats::{Gauss2, floor_eigenvalues};
 use super::tables::TableCache;
 use super::validate::{clamp_psd, validate_location};
 use crate::motion::SpeedPrior;

@@ -37,7 +37,7 @@
 
 use std::f32::consts::TAU;
 
-use super::build::Gauss2;
+use super::stats::Gauss2;
 use crate::math::f32x4::{F32x4, ROUND_MAGIC};
 
 /// Four components, field by field (two cache lines), and where the location's other

@@ -38,6 +38,7 @@
 //! | `grid`, `neighbours`, `tables` | the grid index, neighbour tables and their cache |
 //! | `csv`, `snapshot` | the published CSV format and our snapshot format |
 //! | `demo` | the built-in demo map |
+//! | [`stats`] | circular-linear statistics and the 2x2 Gaussian helpers of building, updates, densities and scores |
 //! | [`build`] | building a map from tracks (mean shift + EM) |
 //! | [`score`] | scoring a map on held-out tracks |
 //! | [`update`] | the online update |
@@ -66,6 +67,7 @@ mod sampling;
 mod sampling_tables;
 pub mod score;
 mod snapshot;
+pub mod stats;
 mod tables;
 #[cfg(test)]
 mod tests;

@@ -34,7 +34,7 @@ use std::f64::consts::TAU;
 use std::sync::OnceLock;
 
 use super::Component;
-use super::build::{Gauss2, floor_eigenvalues};
+use super::stats::{Gauss2, floor_eigenvalues};
 use crate::math::wrap_2pi;
 
 /// Covariance eigenvalues are raised to at least this for the measure (as for scoring).

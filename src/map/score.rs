@@ -19,7 +19,8 @@
 use rayon::prelude::*;
 use serde::Serialize;
 
-use super::build::{BuildError, Gauss2, Observation, check_observations, floor_eigenvalues};
+use super::build::{BuildError, Observation, check_observations};
+use super::stats::{Gauss2, floor_eigenvalues};
 use super::{CliffMap, MapSet};
 
 /// Options of [`score`].

@@ -23,7 +23,8 @@
 //!    grow without bound; `W <- W + n`.
 //!
 //! Nodes without a location get one when they have gathered enough samples for a
-//! mixture: a node's samples too few to fit are kept (the newest [`SEED_SAMPLES`], at most
+//! mixture: a node's samples too few to fit are kept (the newest [`SEED_SAMPLES`]: the
+//! latest batch's first, a batch's own in their canonical order; at most
 //! [`SEED_BUDGET`] over all nodes) and joined by the next batches' until they fit, as a
 //! batch build over all the data would have fitted them. Nodes without new data only
 //! decay. Observation ratios are `W / max W`. The map's speed prior
@@ -63,11 +64,12 @@ use glam::DVec2;
 use rayon::prelude::*;
 
 use super::build::{
-    BuildError, BuildParams, Built, FitParams, Gauss2, Lattice, Observation, build_map,
-    check_observations, eig_sym, fit_mixture, floor_eigenvalues, split,
+    BuildError, BuildParams, Built, FitParams, Lattice, Observation, build_map, check_observations,
+    fit_mixture, split,
 };
 use super::mixture::{cap_components, merge_near_duplicates};
 use super::movement::total_variation;
+use super::stats::{Gauss2, eig_sym, floor_eigenvalues};
 use super::{CliffMap, Component, Location, MapError};
 use crate::math::{wrap_2pi, wrap_pi};
 use crate::motion::SpeedPrior;

@@ -1,7 +1,7 @@
 //! The guards between observations and a served map: a track's rows in one update
 //! capped ([`thin`]), one client's share of an update capped ([`share_capped`]), and a
 //! new version checked on a held-out sample of recent observations before it is served
-//! ([`HeldSample`]). Their settings are [`Guards`](super::settings::Guards).
+//! ([`HeldSample`]). Their settings are [`Guards`](crate::settings::Guards).
 
 use std::collections::{HashMap, VecDeque};
 

@@ -11,7 +11,7 @@ use cliff_client::protocol::{
     FLAG_TRACK_END, FLAG_VELOCITY, Field, Observation, Rejection, Status,
 };
 
-use super::settings::Budgets;
+use crate::settings::Budgets;
 
 /// Who sent an observation: the iceoryx2 client port's id (or a remote session's).
 pub(crate) type ClientKey = u128;

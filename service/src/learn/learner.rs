@@ -15,9 +15,9 @@ use tracing::{info, warn};
 
 use super::guard;
 use super::intake::{ClientKey, Segment};
-use super::settings::LearnSettings;
 use super::snapshots::{self, Saved};
 use crate::registry::TablePolicy;
+use crate::settings::LearnSettings;
 
 /// A version of a learned map, ready to be served.
 pub(crate) struct Published {

@@ -1,7 +1,8 @@
 //! Maps that learn while they serve (`cliffd --learn NAME`): observations in, a
-//! background learner, new versions swapped in, snapshots on disk. One part per file:
+//! background learner, new versions swapped in, snapshots on disk. What to learn and how
+//! ([`LearnSettings`], the per-client [`Budgets`] and the [`Guards`]) is part of the
+//! daemon's settings (`settings/learning.rs`), re-exported here. One part per file:
 //!
-//! * `settings.rs`: [`LearnSettings`], the per-client [`Budgets`] and the [`Guards`];
 //! * `intake.rs`: observations in, on the serving thread: budgets, deduplication by
 //!   (client, track, time), tracks cut into segments, quiet clients dropped;
 //! * `guard.rs`: the guards between observations and the served map (a track's and a
@@ -18,7 +19,6 @@
 mod guard;
 mod intake;
 mod learner;
-mod settings;
 mod snapshots;
 
 use std::sync::atomic::Ordering;
@@ -33,8 +33,8 @@ use tracing::{info, warn};
 use crate::registry::{Registry, TablePolicy};
 use crate::settings::StartError;
 
+pub use crate::settings::{Budgets, Guards, LearnSettings};
 pub(crate) use intake::ClientKey;
-pub use settings::{Budgets, Guards, LearnSettings};
 
 use intake::{Intake, Segment};
 use learner::{Learner, Shared, Start};

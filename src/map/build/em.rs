@@ -3,7 +3,7 @@
 
 use std::f64::consts::{PI, TAU};
 
-use super::stats::{Gauss2, eig_sym};
+use crate::map::stats::{Gauss2, eig_sym};
 use crate::math::wrap_2pi;
 
 /// Stopping rules of EM.

@@ -68,7 +68,7 @@ impl Bandwidth {
     /// speed variance of all samples (variances in Silverman's rule, the quirk kept
     /// for parity), `1e-10` added to an `h` below machine epsilon.
     pub fn of(samples: &[[f64; 2]]) -> Self {
-        let st = super::stats::CircularLinearStats::of(samples.iter());
+        let st = crate::map::stats::CircularLinearStats::of(samples.iter());
         let n = samples.len() as f64;
         let rule = |v: f64| {
             let v = if v.is_finite() {

