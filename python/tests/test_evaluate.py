@@ -75,7 +75,7 @@ def test_tables_are_lists_of_dicts_for_pandas(thor1_map):
         (dict(dt=-0.4), ValueError, "dt: -0.4 is not a positive number"),
         (dict(format="parquet"), ValueError, "format: unknown track format"),
         (dict(count="some"), ValueError, "count: unknown counting 'some'"),
-        (dict(max_speed=-1.0), ValueError, "max_speed: -1.0 is not a positive speed"),
+        (dict(max_speed=-2.5), ValueError, "max_speed: -2.5 is not a positive speed"),
     ],
 )
 def test_bad_arguments(thor1_map, kwargs, exc, match):
