@@ -55,6 +55,13 @@
 // Method: the improved method (a preset of the options beyond the paper).
 #define CLIFF_METHOD_IMPROVED 2
 
+// Method: the learned motion model alone (the daemon's built-in model, from each
+// agent's observed rows; no map).
+#define CLIFF_METHOD_MOTION 3
+
+// Method: constant velocity of the last observed displacement.
+#define CLIFF_METHOD_CVM_LAST 4
+
 // `CliffParams.flags` bit: the response carries a score per sample
 // (`CliffPrediction.scores`).
 #define CLIFF_FLAG_SCORES 1
@@ -83,7 +90,8 @@ typedef struct CliffRequest CliffRequest;
 // Prediction parameters (see `cliff::predict::Params` and `cliff::predict::Options`).
 // Codes are sent as they are: an unknown one is refused by the daemon with its status.
 typedef struct CliffParams {
-  // `CLIFF_METHOD_CLIFF` (0), `CLIFF_METHOD_CVM` (1) or `CLIFF_METHOD_IMPROVED` (2).
+  // `CLIFF_METHOD_CLIFF` (0), `CLIFF_METHOD_CVM` (1), `CLIFF_METHOD_IMPROVED` (2),
+  // `CLIFF_METHOD_MOTION` (3) or `CLIFF_METHOD_CVM_LAST` (4).
   uint32_t method;
   // 0: circular mean (reference), 1: the paper's rule.
   uint32_t heading_rule;

@@ -4,7 +4,7 @@ use std::sync::Arc;
 
 use cliff::map::CliffMap;
 use cliff::predict::preset::cost_factor;
-use cliff::predict::{BatchMut, predict_batch_into};
+use cliff::predict::{BatchMut, Rollout};
 use cliff_client::protocol::{
     DecodeScratch, Limits, MAX_HISTORY, decode_request, scores_in_response,
 };
@@ -169,22 +169,27 @@ pub fn predict_local(
             lens: lens_flat,
         };
         // the predictor fills every point (NaN past a sample's end), on all cores (the
-        // same numbers as on one: each person draws from a generator of its own)
-        predict_batch_into(
-            &map,
-            scratch.states(),
-            &d.params,
-            &d.options,
-            out,
-            scores_flat,
-        )
-        .map_err(|_| Rejection {
-            status: Status::Internal,
-            agent: None,
-            row: None,
-            field: Field::None,
-            limit: 0,
-        })
+        // same numbers as on one: each person draws from a generator of its own), from
+        // each person's observed rows as the daemon predicts them
+        let scores = (d.options.scores || !scores_flat.is_empty()).then_some(scores_flat);
+        Rollout::new(&d.params)
+            .and_then(|r| r.with_options(d.options))
+            .and_then(|mut r| {
+                r.predict_agents_parallel_observed(
+                    &map,
+                    scratch.states(),
+                    Some(scratch.histories()),
+                    out,
+                    scores,
+                )
+            })
+            .map_err(|_| Rejection {
+                status: Status::Internal,
+                agent: None,
+                row: None,
+                field: Field::None,
+                limit: 0,
+            })
     })
     .map_err(|r| local_rejection(&r))?;
     Prediction::from_flat(

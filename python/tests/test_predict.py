@@ -277,3 +277,16 @@ def test_time_is_checked_and_one_map_serves_every_time():
     ]
     for r in runs[1:]:
         np.testing.assert_array_equal(r.positions, runs[0].positions)
+
+
+def test_cvm_last_and_motion_read_the_observed_rows(thor1_map):
+    # east at 1.25 m/s, then the last step turned north
+    turned = np.array([[0.0, 0.0, 0.0], [0.4, 0.5, 0.0], [0.8, 1.0, 0.0], [1.2, 1.0, 0.5]])
+    p = cliff_lhmp.predict(thor1_map, [turned], k=1, dt=0.4, horizon=2.0, method="cvm-last")
+    # constant velocity of the last displacement: north at 1.25 m/s from (1, 0.5)
+    want = np.array([[1.0, 0.5 + 0.5 * j] for j in range(1, 6)])
+    np.testing.assert_allclose(p.positions[0, 0], want, atol=1e-5)
+    m = cliff_lhmp.predict(thor1_map, [WALK], k=5, dt=0.4, horizon=12.0, method="motion")
+    # the learned model needs no map: every sample reaches the horizon, going on east
+    assert not np.isnan(m.positions).any()
+    assert (m.positions[0, 0, -1, 0] > WALK[-1, 1] + 5.0)

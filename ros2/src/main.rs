@@ -36,7 +36,7 @@ const PARAM_HELP: &[(&str, &str)] = &[
         "rate",
         "predictions per second; 0: after every input message",
     ),
-    ("method", "cliff, cvm or improved"),
+    ("method", "cliff, cvm, improved, motion or cvm-last"),
     ("k", "samples per person"),
     ("horizon", "prediction horizon (s)"),
     ("dt", "time step of the samples (s)"),

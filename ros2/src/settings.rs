@@ -46,7 +46,7 @@ pub struct Parameters {
     pub static_transforms: Vec<String>,
     /// Predictions per second (0: after every input message).
     pub rate: f64,
-    /// Method: cliff, cvm or improved.
+    /// Method: cliff, cvm, improved, motion (the learned motion model) or cvm-last.
     pub method: String,
     /// Samples per person.
     pub k: usize,

@@ -28,7 +28,7 @@ use std::collections::VecDeque;
 use std::sync::Arc;
 
 use cliff::map::{CliffMap, Lookup};
-use cliff::motion::State;
+use cliff::motion::{History, State};
 use cliff::predict::preset::cost_factor;
 use cliff::predict::{BatchMut, Options, Params, Point, Rollout, Tables};
 use cliff_client::protocol::{DecodeScratch, Decoded, Limits, RequestHeader};
@@ -310,6 +310,7 @@ impl<O: Output> Scheduler<O> {
                 Chunk::split(
                     task,
                     slot.scratch.states(),
+                    slot.scratch.histories(),
                     out.words(),
                     i,
                     shares[r],
@@ -384,6 +385,8 @@ struct Chunk<'a> {
     map: &'a CliffMap,
     rollout: &'a mut Rollout,
     states: &'a [State],
+    /// The chunk's agents' observed paths (`motion` and `cvm-last` read them).
+    histories: &'a [History],
     positions: &'a mut [Point],
     lens: &'a mut [u32],
     /// The chunk's scores (`None` when the request asked for none).
@@ -401,6 +404,7 @@ impl<'a> Chunk<'a> {
     fn split(
         task: &'a mut Task,
         states: &'a [State],
+        histories: &'a [History],
         words: &'a mut [u32],
         slot: usize,
         count: usize,
@@ -421,6 +425,7 @@ impl<'a> Chunk<'a> {
         let (_, mut lens) = lens.split_at_mut(a * k);
         let mut scores = all_scores.map(|s| s.split_at_mut(a * k).1);
         let mut states = &states[a..task.agents];
+        let mut histories = &histories[a..task.agents];
         let (params, options) = (task.params, task.options);
         let mut helped = 0;
         let rollouts = std::iter::once(&mut task.rollout).chain(task.helpers.iter_mut());
@@ -448,17 +453,19 @@ impl<'a> Chunk<'a> {
                 None => None,
             };
             let (st, rest_st) = states.split_at(n);
+            let (hi, rest_hi) = histories.split_at(n);
             jobs.push(Chunk {
                 map: &task.map,
                 rollout,
                 states: st,
+                histories: hi,
                 positions: p,
                 lens: l,
                 scores: sc,
                 slot,
                 ok: true,
             });
-            (positions, lens, states) = (rest_p, rest_l, rest_st);
+            (positions, lens, states, histories) = (rest_p, rest_l, rest_st, rest_hi);
             task.next += n;
         }
         task.skip = helped;
@@ -470,10 +477,13 @@ impl<'a> Chunk<'a> {
             lens: &mut *self.lens,
         };
         let scores = self.scores.as_deref_mut();
-        if let Err(e) = self
-            .rollout
-            .predict_agents(self.map, self.states, out, scores)
-        {
+        if let Err(e) = self.rollout.predict_agents_observed(
+            self.map,
+            self.states,
+            Some(self.histories),
+            out,
+            scores,
+        ) {
             error!("prediction failed: {e}");
             self.ok = false;
         }
@@ -491,7 +501,7 @@ fn recycle<'b>(mut v: Vec<Chunk<'_>>) -> Vec<Chunk<'b>> {
 #[cfg(test)]
 mod tests {
     use cliff::glam::DVec2;
-    use cliff::predict::{Method, TrajectoryBatch, predict, predict_with};
+    use cliff::predict::{Method, TrajectoryBatch, predict, predict_with, predict_with_histories};
     use cliff_client::protocol::payload_words;
 
     use super::*;
@@ -524,7 +534,7 @@ mod tests {
         agents: usize,
         params: &Params,
     ) -> Vec<State> {
-        admit_with(s, map, agents, params, &Options::default())
+        admit_with(s, map, agents, params, &Options::default()).0
     }
 
     /// As [`admit`], with options.
@@ -534,17 +544,16 @@ mod tests {
         agents: usize,
         params: &Params,
         options: &Options,
-    ) -> Vec<State> {
+    ) -> (Vec<State>, Vec<History>) {
         let mut request = cliff_client::Request::new("demo", params).unwrap();
         request.set_options(options);
         for w in walkers(agents) {
-            request.add_agent([cliff_client::Observation::with_velocity(
-                0.0,
-                w.position.x,
-                w.position.y,
-                w.speed,
-                w.heading,
-            )]);
+            // a row 0.4 s before, on the way there
+            let before = w.position - DVec2::from_angle(w.heading) * (w.speed * 0.4);
+            let row = |t: f64, p: DVec2| {
+                cliff_client::Observation::with_velocity(t, p.x, p.y, w.speed, w.heading)
+            };
+            request.add_agent([row(-0.4, before), row(0.0, w.position)]);
         }
         let slot = s.free_slot().expect("room");
         slot.header = *request.header();
@@ -559,13 +568,14 @@ mod tests {
         let scored = options.scores || params.method == Method::Improved;
         assert_eq!(decoded.options.scores, scored);
         let states = slot.scratch.states().to_vec();
+        let histories = slot.scratch.histories().to_vec();
         let out = vec![0u32; decoded.payload_words(agents)];
         assert_eq!(
             out.len(),
             payload_words(agents, params.k, params.steps(), scored)
         );
         s.admit(map.clone(), &decoded, out);
-        states
+        (states, histories)
     }
 
     /// The payload words of a batch (positions' bits, then lengths, then the scores'
@@ -605,11 +615,18 @@ mod tests {
             },
         ];
         for (i, options) in cases.iter().enumerate() {
-            for method in [Method::Cliff, Method::Cvm, Method::Improved] {
+            let methods = [
+                Method::Cliff,
+                Method::Cvm,
+                Method::Improved,
+                Method::Motion,
+                Method::CvmLast,
+            ];
+            for method in methods {
                 let params = Params { method, ..params };
                 // chunks of one agent (480 positions): 7 rounds
                 let mut s = Scheduler::<Vec<u32>>::new(2, &Limits::default(), 1, 480).unwrap();
-                let states = admit_with(&mut s, &map, 7, &params, options);
+                let (states, histories) = admit_with(&mut s, &map, 7, &params, options);
                 let mut got = None;
                 let mut rounds = 0;
                 while s.busy() {
@@ -625,7 +642,8 @@ mod tests {
                 }
                 assert_eq!(rounds, 7, "case {i} {method}");
                 let mut whole = TrajectoryBatch::new();
-                predict_with(&map, &states, &params, options, &mut whole).unwrap();
+                predict_with_histories(&map, &states, &histories, &params, options, &mut whole)
+                    .unwrap();
                 let scored = options.scores || method == Method::Improved;
                 assert_eq!(whole.scores().is_empty(), !scored);
                 let got = got.expect("finished");
@@ -674,7 +692,7 @@ mod tests {
         ] {
             // 30 agents (the default limit 32); the slot's rollouts are reused
             let before = s.parallel_chunks as usize;
-            let states = admit_with(&mut s, &map, 30, &params, &options);
+            let (states, _) = admit_with(&mut s, &map, 30, &params, &options);
             let mut rounds = 0;
             let mut words = None;
             while s.busy() {

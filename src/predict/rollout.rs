@@ -344,19 +344,32 @@ impl Rollout {
         out: BatchMut<'_>,
         scores: Option<&mut [f32]>,
     ) -> Result<(), PredictError> {
+        self.predict_agents_parallel_observed(map, agents, None, out, scores)
+    }
+
+    /// [`predict_agents_parallel`](Self::predict_agents_parallel) with each agent's
+    /// observed [`History`], as [`predict_agents_observed`](Self::predict_agents_observed)
+    /// takes them: the same bytes and scores as that on one thread.
+    pub fn predict_agents_parallel_observed(
+        &mut self,
+        map: &CliffMap,
+        agents: &[State],
+        histories: Option<&[History]>,
+        out: BatchMut<'_>,
+        scores: Option<&mut [f32]>,
+    ) -> Result<(), PredictError> {
         use rayon::prelude::*;
         let steps = check_call(agents, &self.params, &out)?;
         let k = self.params.k;
         let work = (agents.len() * k * steps).saturating_mul(self.options.cost_factor());
         let threads = rayon::current_num_threads();
+        let wrong_histories = histories.is_some_and(|h| h.len() != agents.len());
         if threads < 2 || agents.len() < 2 || steps == 0 || work < PARALLEL_MIN_POSITIONS {
-            return self.predict_agents(map, agents, out, scores);
+            return self.predict_agents_observed(map, agents, histories, out, scores);
         }
-        if let Some(s) = &scores
-            && s.len() != out.lens.len()
-        {
+        if wrong_histories || scores.as_ref().is_some_and(|s| s.len() != out.lens.len()) {
             // (the sequential call names the error)
-            return self.predict_agents(map, agents, out, scores);
+            return self.predict_agents_observed(map, agents, histories, out, scores);
         }
         // shares of a few agents, several per thread (agents differ in cost)
         let per = agents.len().div_ceil(threads * 8).max(1);
@@ -374,9 +387,12 @@ impl Rollout {
             .zip(score_shares.par_iter_mut())
             .enumerate()
             .try_for_each(|(i, (((agents, positions), lens), scores))| {
-                this.ahead((i * per) as u64).predict_agents(
+                let from = i * per;
+                let histories = histories.map(|h| &h[from..from + agents.len()]);
+                this.ahead(from as u64).predict_agents_observed(
                     map,
                     agents,
+                    histories,
                     BatchMut { positions, lens },
                     scores.take(),
                 )

@@ -76,6 +76,11 @@ pub const CLIFF_METHOD_CLIFF: u32 = 0;
 pub const CLIFF_METHOD_CVM: u32 = 1;
 /// Method: the improved method (a preset of the options beyond the paper).
 pub const CLIFF_METHOD_IMPROVED: u32 = 2;
+/// Method: the learned motion model alone (the daemon's built-in model, from each
+/// agent's observed rows; no map).
+pub const CLIFF_METHOD_MOTION: u32 = 3;
+/// Method: constant velocity of the last observed displacement.
+pub const CLIFF_METHOD_CVM_LAST: u32 = 4;
 
 /// `CliffParams.flags` bit: the response carries a score per sample
 /// (`CliffPrediction.scores`).
@@ -99,7 +104,8 @@ pub const CLIFF_TIME_ALL_DAY: u32 = 2;
 #[repr(C)]
 #[derive(Debug, Clone, Copy)]
 pub struct CliffParams {
-    /// `CLIFF_METHOD_CLIFF` (0), `CLIFF_METHOD_CVM` (1) or `CLIFF_METHOD_IMPROVED` (2).
+    /// `CLIFF_METHOD_CLIFF` (0), `CLIFF_METHOD_CVM` (1), `CLIFF_METHOD_IMPROVED` (2),
+    /// `CLIFF_METHOD_MOTION` (3) or `CLIFF_METHOD_CVM_LAST` (4).
     pub method: u32,
     /// 0: circular mean (reference), 1: the paper's rule.
     pub heading_rule: u32,

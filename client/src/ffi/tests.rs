@@ -7,6 +7,8 @@ fn the_c_constants_are_the_protocols() {
     assert_eq!(CLIFF_METHOD_CLIFF, protocol::METHOD_CLIFF);
     assert_eq!(CLIFF_METHOD_CVM, protocol::METHOD_CVM);
     assert_eq!(CLIFF_METHOD_IMPROVED, protocol::METHOD_IMPROVED);
+    assert_eq!(CLIFF_METHOD_MOTION, protocol::METHOD_MOTION);
+    assert_eq!(CLIFF_METHOD_CVM_LAST, protocol::METHOD_CVM_LAST);
     assert_eq!(CLIFF_FLAG_SCORES, protocol::FLAG_SCORES);
     assert_eq!(CLIFF_FLAG_BASE_MAP, protocol::FLAG_BASE_MAP);
     assert_eq!(CLIFF_TIME_NOW, protocol::TIME_NOW);

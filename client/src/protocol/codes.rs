@@ -55,12 +55,10 @@ pub const METHOD_CVM: u32 = 1;
 /// library, `cliff::predict::preset`; the preset's beta and options replace the request's).
 pub const METHOD_IMPROVED: u32 = 2;
 /// [`RequestHeader::method`](super::RequestHeader::method) for the learned motion model alone
-/// (`Method::Motion`). Reserved: cliffd does not serve it yet and answers
-/// [`Status::UnknownMethod`](super::Status::UnknownMethod); predict it in-process
-/// (`cliff::predict::predict_with_histories`).
+/// (`Method::Motion`: the daemon's built-in model, from each agent's observed rows).
 pub const METHOD_MOTION: u32 = 3;
 /// [`RequestHeader::method`](super::RequestHeader::method) for constant velocity of the last
-/// displacement (`Method::CvmLast`). Reserved as [`METHOD_MOTION`] is.
+/// observed displacement (`Method::CvmLast`).
 pub const METHOD_CVM_LAST: u32 = 4;
 
 /// [`RequestHeader::flags`](super::RequestHeader::flags) and
@@ -119,13 +117,14 @@ pub fn method_code(method: Method) -> u32 {
     }
 }
 
-/// The method of a wire code; `None` for an unknown code and for the reserved codes
-/// this version does not serve ([`METHOD_MOTION`], [`METHOD_CVM_LAST`]).
+/// The method of a wire code; `None` for an unknown code.
 pub fn method_from_code(code: u32) -> Option<Method> {
     match code {
         METHOD_CLIFF => Some(Method::Cliff),
         METHOD_CVM => Some(Method::Cvm),
         METHOD_IMPROVED => Some(Method::Improved),
+        METHOD_MOTION => Some(Method::Motion),
+        METHOD_CVM_LAST => Some(Method::CvmLast),
         _ => None,
     }
 }

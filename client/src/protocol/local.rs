@@ -2,7 +2,7 @@
 //! prediction without a daemon.
 
 use cliff::map::CliffMap;
-use cliff::predict::{TrajectoryBatch, predict_with};
+use cliff::predict::{TrajectoryBatch, predict_with_histories};
 
 use super::limits::Limits;
 use super::request::{Observation, RequestHeader};
@@ -51,7 +51,7 @@ impl LocalPredictor {
         }
     }
 
-    /// Decode and predict with the request's options ([`cliff::predict::predict_with`]); the result
+    /// Decode and predict with the request's options ([`cliff::predict::predict_with_histories`], from each agent's observed rows); the result
     /// stays in [`batch`](Self::batch), with [`TrajectoryBatch::scores`] when the response would
     /// carry them. The request's [`MapTime`](super::MapTime) is validated and `map` used whatever
     /// it says: for a time-of-day set, pass the map the daemon would pick
@@ -63,9 +63,16 @@ impl LocalPredictor {
         rows: &[Observation],
     ) -> Result<&TrajectoryBatch, Rejection> {
         let d = decode_request(header, rows, &self.limits, &mut self.scratch)?;
-        let states = self.scratch.states();
-        predict_with(map, states, &d.params, &d.options, &mut self.batch)
-            .map_err(|_| Rejection::new(Status::Internal, Field::None))?;
+        let (states, histories) = (self.scratch.states(), self.scratch.histories());
+        predict_with_histories(
+            map,
+            states,
+            histories,
+            &d.params,
+            &d.options,
+            &mut self.batch,
+        )
+        .map_err(|_| Rejection::new(Status::Internal, Field::None))?;
         Ok(&self.batch)
     }
 
@@ -77,7 +84,7 @@ impl LocalPredictor {
 
 #[cfg(test)]
 mod tests {
-    use cliff::predict::Options;
+    use cliff::predict::{Options, predict_with};
 
     use super::*;
     use crate::protocol::map_time::MapTime;

@@ -3,7 +3,9 @@
 //! the in-process reference alike.
 
 use cliff::glam::DVec2;
-use cliff::motion::{DEFAULT_SIGMA, State, velocity_from_positions, velocity_from_speed_angle};
+use cliff::motion::{
+    DEFAULT_SIGMA, History, State, velocity_from_positions, velocity_from_speed_angle,
+};
 use cliff::predict::preset::cost_factor;
 use cliff::predict::{HeadingRule, Options, Params};
 
@@ -25,6 +27,7 @@ pub struct DecodeScratch {
     speeds: Vec<f64>,
     headings: Vec<f64>,
     states: Vec<State>,
+    histories: Vec<History>,
 }
 
 impl DecodeScratch {
@@ -37,12 +40,19 @@ impl DecodeScratch {
             speeds: Vec::with_capacity(h),
             headings: Vec::with_capacity(h),
             states: Vec::with_capacity(limits.max_agents as usize),
+            histories: Vec::with_capacity(limits.max_agents as usize),
         }
     }
 
     /// The agents' start states decoded by the last successful [`decode_request`].
     pub fn states(&self) -> &[State] {
         &self.states
+    }
+
+    /// The agents' observed paths on the motion model's grid, one per state (what the
+    /// methods `motion` and `cvm-last` read).
+    pub fn histories(&self) -> &[History] {
+        &self.histories
     }
 }
 
@@ -94,6 +104,7 @@ pub fn decode_request(
 ) -> Result<Decoded, Rejection> {
     use Status::*;
     scratch.states.clear();
+    scratch.histories.clear();
     if h.version != PROTOCOL_VERSION {
         return Err(Rejection::over(
             BadVersion,
@@ -203,8 +214,9 @@ pub fn decode_request(
                 ..Rejection::over(HistoryTooLong, Field::None, max_history as u32)
             });
         }
-        let state = agent_state(a, run, scratch_bufs(scratch))?;
+        let (state, history) = agent_state(a, run, scratch_bufs(scratch))?;
         scratch.states.push(state);
+        scratch.histories.push(history);
         start = end;
     }
     if let Some(extra) = rows.get(start) {
@@ -238,8 +250,9 @@ fn scratch_bufs(s: &mut DecodeScratch) -> Bufs<'_> {
     )
 }
 
-/// The start state of agent `a` from its rows (already grouped, at most MAX_HISTORY).
-fn agent_state(a: u32, run: &[Observation], bufs: Bufs<'_>) -> Result<State, Rejection> {
+/// The start state of agent `a` from its rows (already grouped, at most MAX_HISTORY),
+/// and its observed path on the motion model's grid.
+fn agent_state(a: u32, run: &[Observation], bufs: Bufs<'_>) -> Result<(State, History), Rejection> {
     use Status::*;
     let (times, positions, speeds, headings) = bufs;
     let with_velocity = run[0].flags & FLAG_VELOCITY != 0;
@@ -297,12 +310,16 @@ fn agent_state(a: u32, run: &[Observation], bufs: Bufs<'_>) -> Result<State, Rej
         return Err(Rejection::at(NonFinite, Field::Speed, a, u32::MAX));
     }
     let last = run[run.len() - 1];
-    Result::Ok(State {
+    let state = State {
         position: DVec2::new(last.x, last.y),
         speed: v.speed,
         heading: v.heading,
         time: last.t,
-    })
+    };
+    // (the rows were checked above as the history needs them)
+    let history = History::from_points(times, positions)
+        .map_err(|_| Rejection::at(BadLayout, Field::None, a, u32::MAX))?;
+    Result::Ok((state, history))
 }
 
 #[cfg(test)]
@@ -342,7 +359,14 @@ mod tests {
         assert!((st[2].speed - 1.5).abs() < 1e-12);
         assert!((st[2].heading - std::f64::consts::FRAC_PI_2).abs() < 1e-12);
         // every method's code decodes to the method
-        for method in [Method::Cliff, Method::Cvm, Method::Improved] {
+        let methods = [
+            Method::Cliff,
+            Method::Cvm,
+            Method::Improved,
+            Method::Motion,
+            Method::CvmLast,
+        ];
+        for method in methods {
             let mut h = RequestHeader::from_params(&Params {
                 method,
                 ..Params::default()
@@ -352,7 +376,12 @@ mod tests {
             assert_eq!(p.params.method, method);
             assert_eq!(method_from_code(method_code(method)), Some(method));
         }
-        assert_eq!(method_from_code(3), None);
+        assert_eq!(method_from_code(5), None);
+        // each agent's observed path ends at its state's position
+        assert_eq!(s.histories().len(), 3);
+        for (st, h) in s.states().iter().zip(s.histories()) {
+            assert_eq!(h.last(), st.position);
+        }
     }
 
     #[test]
