@@ -63,8 +63,15 @@ fn options_scores_and_time_through_the_daemon_give_the_in_process_bytes() {
     let mut with_scores = 0;
     let mut best_differs = 0;
     let mut kept = cliff::predict::TrajectoryBatch::new();
+    let methods = [
+        Method::Cliff,
+        Method::Cvm,
+        Method::Improved,
+        Method::Motion,
+        Method::CvmLast,
+    ];
     for (i, base) in requests.iter().enumerate() {
-        for method in [Method::Cliff, Method::Cvm, Method::Improved] {
+        for method in methods {
             for (j, (speed_beta, coast, scores)) in [
                 (0.0, 0.0, true),
                 (2.0, 0.0, false),
@@ -111,7 +118,8 @@ fn options_scores_and_time_through_the_daemon_give_the_in_process_bytes() {
             }
         }
     }
-    assert_eq!(with_scores, 6 * (2 * 3 + 4));
+    // scores asked for (3 of the 4 option sets) for 4 methods, and improved's always
+    assert_eq!(with_scores, 6 * (4 * 3 + 4));
     // the scores rank samples: the best one is not always the first
     assert!(best_differs > 10, "{best_differs}");
 }
