@@ -7,6 +7,10 @@
 //! * `atc_person_k20_50steps`: the ATC dev person (hour 13) with 50 s of ground truth,
 //!   20 samples, 50 s at 1 s, radius 1, on atc/cliffmap-20121024.csv.
 //! * `cvm_thor1_person`: constant velocity on the THÖR1 person, for scale.
+//! * `motion_forecast_thor1_person`: the built-in motion model's forecast of the THÖR1
+//!   person from their observed path (the inference alone: features and 60 dot
+//!   products); `motion_thor1_person_k20_30steps`: the method `motion`, 20 samples of
+//!   30 steps from the observed path.
 //! * Options (suffixes): `_speed` the speed kernel (speed_beta 1); `_coast` coasting
 //!   (4 s) where the map has no data; `_scores` a score per sample
 //!   ([`Options::scores`]); `_speed_scores` both; `_all` scores, the speed kernel and
@@ -21,8 +25,12 @@
 
 use std::hint::black_box;
 
-use cliff::predict::{Method, Options, Params, TrajectoryBatch, predict, predict_with};
+use cliff::motion::MotionModel;
+use cliff::predict::{
+    Method, Options, Params, TrajectoryBatch, predict, predict_with, predict_with_histories,
+};
 use criterion::{Criterion, criterion_group, criterion_main};
+use glam::DVec2;
 
 mod common;
 use common::{Person, atc_person, atc_set, thor1_person};
@@ -117,6 +125,33 @@ fn bench(c: &mut Criterion) {
                 &thor.map,
                 black_box(std::slice::from_ref(&thor.case.start)),
                 &params,
+                &mut batch,
+            )
+            .unwrap();
+            black_box(batch.lens()[0])
+        })
+    });
+
+    let model = MotionModel::builtin();
+    let history = thor.case.history();
+    c.bench_function("motion_forecast_thor1_person", |b| {
+        b.iter(|| {
+            let f = model.forecast(black_box(&history));
+            black_box(f.position(4.8, DVec2::ZERO))
+        })
+    });
+    c.bench_function("motion_thor1_person_k20_30steps", |b| {
+        b.iter(|| {
+            let params = Params {
+                method: Method::Motion,
+                ..thor.params
+            };
+            predict_with_histories(
+                &thor.map,
+                black_box(std::slice::from_ref(&thor.case.start)),
+                std::slice::from_ref(&history),
+                &params,
+                &Options::default(),
                 &mut batch,
             )
             .unwrap();
