@@ -615,14 +615,7 @@ mod tests {
             },
         ];
         for (i, options) in cases.iter().enumerate() {
-            let methods = [
-                Method::Cliff,
-                Method::Cvm,
-                Method::Improved,
-                Method::Motion,
-                Method::CvmLast,
-            ];
-            for method in methods {
+            for method in Method::ALL {
                 let params = Params { method, ..params };
                 // chunks of one agent (480 positions): 7 rounds
                 let mut s = Scheduler::<Vec<u32>>::new(2, &Limits::default(), 1, 480).unwrap();

@@ -63,15 +63,8 @@ fn options_scores_and_time_through_the_daemon_give_the_in_process_bytes() {
     let mut with_scores = 0;
     let mut best_differs = 0;
     let mut kept = cliff::predict::TrajectoryBatch::new();
-    let methods = [
-        Method::Cliff,
-        Method::Cvm,
-        Method::Improved,
-        Method::Motion,
-        Method::CvmLast,
-    ];
     for (i, base) in requests.iter().enumerate() {
-        for method in methods {
+        for method in Method::ALL {
             for (j, (speed_beta, coast, scores)) in [
                 (0.0, 0.0, true),
                 (2.0, 0.0, false),

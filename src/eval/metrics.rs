@@ -178,9 +178,8 @@ mod tests {
     use crate::motion::State;
     use crate::tracks::Row;
 
-    #[test]
-    fn errors_of_two_samples() {
-        // truth walks east 1 m/s; sample A is exact, sample B is 1 m north, and stops after 2 steps
+    /// Truth walking east at 1 m/s from the origin, 5 steps of 1 s.
+    fn walking_east() -> Case {
         let future: Vec<Row> = (0..6)
             .map(|i| Row {
                 t: i as f64,
@@ -189,7 +188,7 @@ mod tests {
                 angle: 0.0,
             })
             .collect();
-        let case = Case {
+        Case {
             id: 1,
             observed: vec![],
             start: State {
@@ -202,7 +201,13 @@ mod tests {
             horizon: 5.0,
             steps: 5,
             window: 0,
-        };
+        }
+    }
+
+    #[test]
+    fn errors_of_two_samples() {
+        // truth walks east 1 m/s; sample A is exact, sample B is 1 m north, and stops after 2 steps
+        let case = walking_east();
         let a: Vec<Point> = (1..=5).map(|i| [i as f32, 0.0]).collect();
         let b: Vec<Point> = (1..=2).map(|i| [i as f32, 1.0]).collect();
         let mut out = vec![];
@@ -259,28 +264,7 @@ mod tests {
     #[test]
     fn counting_everyone_keeps_a_stopped_sample_where_it_stopped() {
         // truth walks east 1 m/s; A is exact, B stops after 2 steps at (2, 1)
-        let future: Vec<Row> = (0..6)
-            .map(|i| Row {
-                t: i as f64,
-                position: DVec2::new(i as f64, 0.0),
-                speed: 1.0,
-                angle: 0.0,
-            })
-            .collect();
-        let case = Case {
-            id: 1,
-            observed: vec![],
-            start: State {
-                position: DVec2::ZERO,
-                speed: 1.0,
-                heading: 0.0,
-                time: 0.0,
-            },
-            future,
-            horizon: 5.0,
-            steps: 5,
-            window: 0,
-        };
+        let case = walking_east();
         let a: Vec<Point> = (1..=5).map(|i| [i as f32, 0.0]).collect();
         let b: Vec<Point> = (1..=2).map(|i| [i as f32, 1.0]).collect();
         let never: Vec<Point> = vec![];

@@ -90,6 +90,15 @@ pub enum Method {
 }
 
 impl Method {
+    /// Every method, in the order of their wire codes.
+    pub const ALL: [Method; 5] = [
+        Method::Cliff,
+        Method::Cvm,
+        Method::Improved,
+        Method::Motion,
+        Method::CvmLast,
+    ];
+
     /// The method's name on the command line and in reports (`cliff`, `cvm`,
     /// `improved`).
     pub fn name(self) -> &'static str {

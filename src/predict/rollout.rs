@@ -210,9 +210,9 @@ impl Rollout {
 
     /// [`predict_agents`](Self::predict_agents) with each agent's observed
     /// [`History`] (one per agent, `histories[i]` ending at `agents[i]`'s position),
-    /// which [`Method::Motion`] and [`Method::CvmLast`] read; the other methods ignore
-    /// them. Without histories those two take the path of constant velocity up to each
-    /// state.
+    /// which [`Method::Motion`], [`Method::CvmLast`] and
+    /// [`Options::motion`](super::Options::motion) read; the rest ignores them. Without
+    /// histories they take the path of constant velocity up to each state.
     pub fn predict_agents_observed(
         &mut self,
         map: &CliffMap,

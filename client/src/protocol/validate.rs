@@ -359,14 +359,7 @@ mod tests {
         assert!((st[2].speed - 1.5).abs() < 1e-12);
         assert!((st[2].heading - std::f64::consts::FRAC_PI_2).abs() < 1e-12);
         // every method's code decodes to the method
-        let methods = [
-            Method::Cliff,
-            Method::Cvm,
-            Method::Improved,
-            Method::Motion,
-            Method::CvmLast,
-        ];
-        for method in methods {
+        for method in Method::ALL {
             let mut h = RequestHeader::from_params(&Params {
                 method,
                 ..Params::default()
