@@ -8,8 +8,8 @@
 //! | file | what it holds |
 //! |---|---|
 //! | [`track`] | [`Row`], [`Track`], the bounds, [`DatasetError`], [`keep_time_range`] |
-//! | [`format`] | [`Format`]: `thor`, `atc`, `magni`, `csv`, `rosbag2` |
-//! | [`read`] | the entry points: [`read_tracks`], [`read_many`], [`parse_tracks`], [`read_many_as`] |
+//! | [`format`] | [`Format`]: `thor`, `atc`, `magni`, `csv`, `rosbag2`, recognised from a file's start by [`Format::detect`] |
+//! | [`read`] | the entry points: [`read_tracks`], [`read_many`], [`parse_tracks`], [`read_many_as`] (which recognises each file's format when none is named) |
 //! | `six_columns` | the THÖR and ATC reader (no header, six columns) |
 //! | [`columns`] | the named-column reader (THÖR-MAGNI, any CSV with a header): [`Columns`] |
 //! | [`rosbag2`] | rosbag2 recordings (MCAP) of people trackers: [`read_recording`] |
