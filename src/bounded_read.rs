@@ -28,6 +28,16 @@ pub(crate) fn read_at_most(path: &Path, max_bytes: u64) -> std::io::Result<Vec<u
     Ok(bytes)
 }
 
+/// The first `max_bytes` bytes of `path` (all of it when shorter): what a reader looks
+/// at to recognise a file, whatever its size.
+pub(crate) fn read_start(path: &Path, max_bytes: u64) -> std::io::Result<Vec<u8>> {
+    let mut bytes = Vec::new();
+    std::fs::File::open(path)?
+        .take(max_bytes)
+        .read_to_end(&mut bytes)?;
+    Ok(bytes)
+}
+
 /// The 1-based line and column (in characters) of byte `offset` of `bytes`, for
 /// errors in text that is not valid UTF-8.
 pub(crate) fn line_column(bytes: &[u8], offset: usize) -> (usize, usize) {
@@ -54,6 +64,15 @@ mod tests {
         let e = read_at_most(&f, 9).unwrap_err();
         assert_eq!(e.kind(), std::io::ErrorKind::InvalidData);
         assert!(e.to_string().contains("larger than 9 bytes"), "{e}");
+    }
+
+    #[test]
+    fn reads_only_the_start() {
+        let dir = tempfile::tempdir().unwrap();
+        let f = dir.path().join("f.csv");
+        std::fs::write(&f, b"0123456789").unwrap();
+        assert_eq!(read_start(&f, 4).unwrap(), b"0123");
+        assert_eq!(read_start(&f, 40).unwrap().len(), 10);
     }
 
     #[test]

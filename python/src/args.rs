@@ -10,19 +10,21 @@ use pyo3::types::PyString;
 
 use crate::errors::io_err;
 
-/// Which format a `format=` argument names.
-pub fn parse_format(format: &str) -> PyResult<Format> {
+/// Which format a `format=` argument names (`None`: each file's own, recognised from it).
+pub fn parse_format(format: Option<&str>) -> PyResult<Option<Format>> {
     format
-        .parse()
+        .map(str::parse)
+        .transpose()
         .map_err(|e: String| PyValueError::new_err(format!("format: {e}")))
 }
 
-/// The `tracks` argument: one path or a sequence of paths, read with `format` (rosbag2
-/// recordings, MCAP files, whatever the format: their `topic`, or their one topic of
-/// people).
+/// The `tracks` argument: one path or a sequence of paths, read with `format` (`None`:
+/// each file in the format recognised from it; rosbag2 recordings, MCAP files, whatever
+/// the format: their `topic`, or their one topic of people). A file whose format is not
+/// recognised is a ValueError naming the `format=` values to choose from.
 pub fn read_tracks_arg(
     tracks: &Bound<'_, PyAny>,
-    format: Format,
+    format: Option<Format>,
     topic: Option<&str>,
 ) -> PyResult<Vec<Track>> {
     let paths: Vec<PathBuf> = if tracks.is_instance_of::<PyString>()
@@ -49,6 +51,20 @@ pub fn read_tracks_arg(
     }
     read_many_as(&paths, format, None, topic).map_err(|e| match &e {
         ReadError::Dataset(DatasetError::Io { file, source }) => io_err("tracks", file, source),
+        ReadError::Dataset(DatasetError::Unrecognised {
+            file,
+            reason,
+            choices,
+        }) => {
+            let give: Vec<String> = choices.iter().map(|c| format!("format=\"{c}\"")).collect();
+            let give = match give.split_last() {
+                Some((last, init)) if !init.is_empty() => format!("{} or {last}", init.join(", ")),
+                _ => give.join(""),
+            };
+            PyValueError::new_err(format!(
+                "tracks: {file}: the format is not recognised: {reason}; give {give}"
+            ))
+        }
         _ => PyValueError::new_err(format!("tracks: {e}")),
     })
 }

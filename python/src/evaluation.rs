@@ -81,7 +81,11 @@ impl Evaluation {
 ///     map: the Map to predict with.
 ///     tracks: a trajectory file or a list of them (rosbag2 recordings too, as in
 ///         ``build_map``).
-///     format: "thor" or "atc" ("magni", "csv"; MCAP files are read as recordings).
+///     format: ``None`` (the format recognised from each file: a rosbag2 bag or
+///         ``.mcap`` file, a THÖR-MAGNI header row, another header row (csv), or six
+///         headerless columns, "thor" or "atc" by the scale of their times) or "thor",
+///         "atc", "magni", "csv", "rosbag2" (MCAP files are read as recordings whatever
+///         the format).
 ///     topic: the topic of rosbag2 recordings (None: their one topic of people).
 ///     protocol: "reference" (the published code's row-based rules, for parity),
 ///         "seconds" (the same rules stated in time), "windows" (windows along long
@@ -102,7 +106,7 @@ impl Evaluation {
 ///     ...     "../shared/data/thor1/exp-1-run-2.csv", protocol="reference", seeds=20)
 ///     >>> print(r.table())
 #[pyfunction]
-#[pyo3(signature = (map, tracks, *, format = "thor", protocol = "seconds", obs = 3.2, dt = 0.4,
+#[pyo3(signature = (map, tracks, *, format = None, protocol = "seconds", obs = 3.2, dt = 0.4,
     horizon = 12.0, radius = 0.7071067811865476, beta = 1.0, k = 20, seeds = 1,
     methods = None, sigma = 1.5,
     heading = "circular-mean", topic = None, count = "reached", max_speed = None))]
@@ -111,7 +115,7 @@ pub fn evaluate(
     py: Python<'_>,
     map: &Bound<'_, Map>,
     tracks: &Bound<'_, PyAny>,
-    format: &str,
+    format: Option<&str>,
     protocol: &str,
     obs: f64,
     dt: f64,

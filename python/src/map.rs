@@ -230,21 +230,21 @@ impl Map {
         .into_pyarray(py)
     }
 
-    /// score(tracks, *, format="thor", radius=None, topic=None) -> dict
+    /// score(tracks, *, format=None, radius=None, topic=None) -> dict
     ///
     /// How well the map explains held-out trajectories (as ``cliff map score``): every
     /// moving row is scored at the nearest location strictly within ``radius`` metres
     /// (``None``: the map's grid step). Keys:
     /// ``mean_log_likelihood``, ``median_log_likelihood``, ``observations`` (moving rows),
     /// ``standing``, ``unmatched`` (no location near), ``share_below`` (share of matched
-    /// rows scoring below ``bad_below``), ``bad_below``, ``radius``. ``tracks`` and
-    /// ``topic`` as in ``build_map``.
-    #[pyo3(signature = (tracks, *, format = "thor", radius = None, topic = None))]
+    /// rows scoring below ``bad_below``), ``bad_below``, ``radius``. ``tracks``,
+    /// ``format`` and ``topic`` as in ``build_map``.
+    #[pyo3(signature = (tracks, *, format = None, radius = None, topic = None))]
     fn score<'py>(
         &self,
         py: Python<'py>,
         tracks: &Bound<'py, PyAny>,
-        format: &str,
+        format: Option<&str>,
         radius: Option<f64>,
         topic: Option<&str>,
     ) -> PyResult<Bound<'py, PyDict>> {
@@ -286,22 +286,26 @@ impl Map {
     }
 }
 
-/// build_map(tracks, *, format="thor", grid=1.0, radius=1.0, topic=None) -> Map
+/// build_map(tracks, *, format=None, grid=1.0, radius=1.0, topic=None) -> Map
 ///
 /// Build a CLiFF-map from recorded trajectories (as ``cliff map build``): mean shift
 /// and EM on the velocities seen within ``radius`` metres of every node of a grid with
-/// step ``grid`` metres. ``tracks`` is a trajectory file or a list of them, in
-/// ``format`` ("thor" or "atc": rows of time, person id, x, y, speed, motion angle;
-/// "magni", "csv"), or rosbag2 recordings (MCAP files, read as such whatever the
-/// format): the messages of ``topic`` (people_msgs/msg/People or
+/// step ``grid`` metres. ``tracks`` is a trajectory file or a list of them, each in
+/// the format recognised from the file itself unless ``format`` names one ("thor" or
+/// "atc": headerless rows of time, person id, x, y, speed, motion angle, told apart by
+/// the scale of the times; "magni": a THÖR-MAGNI header row; "csv": another header
+/// row), or rosbag2 recordings (MCAP files, read as such whatever the format): the
+/// messages of ``topic`` (people_msgs/msg/People or
 /// autoware_perception_msgs/msg/TrackedObjects), by default of the recording's one
-/// topic of such a type. Runs on all cores, with the GIL released.
+/// topic of such a type. A file whose format is not recognised (a headerless file whose
+/// times could be either thor or atc, say) is a ValueError naming the formats to choose
+/// from. Runs on all cores, with the GIL released.
 #[pyfunction]
-#[pyo3(signature = (tracks, *, format = "thor", grid = 1.0, radius = 1.0, topic = None))]
+#[pyo3(signature = (tracks, *, format = None, grid = 1.0, radius = 1.0, topic = None))]
 pub fn build_map(
     py: Python<'_>,
     tracks: &Bound<'_, PyAny>,
-    format: &str,
+    format: Option<&str>,
     grid: f64,
     radius: f64,
     topic: Option<&str>,

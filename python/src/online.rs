@@ -73,18 +73,18 @@ impl OnlineMap {
         })
     }
 
-    /// update(tracks, *, format="thor", topic=None) -> dict
+    /// update(tracks, *, format=None, topic=None) -> dict
     ///
     /// Fold a batch of trajectory files into the map. Returns what changed:
     /// ``observations``, ``updated`` (locations that got samples), ``created`` (new
-    /// locations), ``added``, ``merged`` and ``pruned`` (components). ``tracks`` and
-    /// ``topic`` as in ``build_map``.
-    #[pyo3(signature = (tracks, *, format = "thor", topic = None))]
+    /// locations), ``added``, ``merged`` and ``pruned`` (components). ``tracks``,
+    /// ``format`` and ``topic`` as in ``build_map``.
+    #[pyo3(signature = (tracks, *, format = None, topic = None))]
     fn update<'py>(
         &self,
         py: Python<'py>,
         tracks: &Bound<'py, PyAny>,
-        format: &str,
+        format: Option<&str>,
         topic: Option<&str>,
     ) -> PyResult<Bound<'py, PyDict>> {
         let format = parse_format(format)?;

@@ -1,5 +1,6 @@
 //! The trajectory file formats: [`Format`], parsed from and shown as the names the
-//! command line takes (`thor`, `atc`, `magni`, `csv`, `rosbag2`).
+//! command line takes (`thor`, `atc`, `magni`, `csv`, `rosbag2`); [`super::detect`]
+//! recognises them from a file's start ([`Format::detect`]).
 
 use std::fmt;
 use std::str::FromStr;
@@ -20,6 +21,29 @@ pub enum Format {
     /// A rosbag2 recording (MCAP) of a people tracker ([`super::rosbag2`]). A file that
     /// begins with the MCAP magic is read as one whatever format is named.
     Rosbag2,
+}
+
+impl Format {
+    /// Every format, in the order the command line lists them.
+    pub const ALL: [Format; 5] = [
+        Format::Thor,
+        Format::Atc,
+        Format::Magni,
+        Format::Csv,
+        Format::Rosbag2,
+    ];
+
+    /// `choices` as a sentence's list: `thor or atc`, `thor, atc, magni, csv or rosbag2`.
+    pub fn list(choices: &[Format]) -> String {
+        match choices {
+            [] => String::new(),
+            [one] => one.to_string(),
+            [init @ .., last] => {
+                let init: Vec<String> = init.iter().map(Format::to_string).collect();
+                format!("{} or {last}", init.join(", "))
+            }
+        }
+    }
 }
 
 impl FromStr for Format {

@@ -9,7 +9,8 @@
 //! |---|---|
 //! | [`track`] | [`Row`], [`Track`], the bounds, [`DatasetError`], [`keep_time_range`] |
 //! | [`format`] | [`Format`]: `thor`, `atc`, `magni`, `csv`, `rosbag2` |
-//! | [`read`] | the entry points: [`read_tracks`], [`read_many`], [`parse_tracks`], [`read_many_as`] |
+//! | [`detect`] | [`Format::detect`]: a file's format recognised from its start |
+//! | [`read`] | the entry points: [`read_tracks`], [`read_many`], [`parse_tracks`], [`read_many_as`] (which recognises each file's format when none is named) |
 //! | `six_columns` | the THÖR and ATC reader (no header, six columns) |
 //! | [`columns`] | the named-column reader (THÖR-MAGNI, any CSV with a header): [`Columns`] |
 //! | [`rosbag2`] | rosbag2 recordings (MCAP) of people trackers: [`read_recording`] |
@@ -23,6 +24,7 @@
 //! ```
 
 pub mod columns;
+pub mod detect;
 pub mod format;
 pub mod read;
 pub mod rosbag2;

@@ -11,7 +11,7 @@
 
 use std::path::Path;
 
-use super::columns::{Columns, parse_named, read_many_named};
+use super::columns::{Columns, parse_named, read_named};
 use super::format::Format;
 use super::rosbag2::{is_mcap, is_recording, parse_recording, read_recording};
 use super::six_columns::parse_six_columns;
@@ -89,20 +89,28 @@ pub fn parse_tracks(text: &str, file: &str, format: Format) -> Result<Vec<Track>
     }
 }
 
-/// Read and concatenate the tracks of several files in `format`; `columns`, when given,
-/// names the columns of a [`Format::Csv`] or [`Format::Magni`] file (and is an error
-/// with the headerless formats); `topic`, when given, the topic of rosbag2 recordings
-/// (and is an error with a text file). Files that begin with the MCAP magic, and bag
-/// folders, are read as recordings whatever `format` says.
+/// Read and concatenate the tracks of several files, each in `format` or, when it is
+/// `None`, in the format recognised from the file itself ([`Format::detect`]: files of
+/// different formats are each read in their own). `columns`, when given, names the
+/// columns of a [`Format::Csv`] or [`Format::Magni`] file (and is an error with the
+/// headerless formats); `topic`, when given, the topic of rosbag2 recordings (and is an
+/// error with a text file). Files that begin with the MCAP magic, and bag folders, are
+/// read as recordings whatever `format` says; recordings and text files are not read
+/// together.
 pub fn read_many_as(
     paths: &[impl AsRef<Path>],
-    format: Format,
+    format: Option<Format>,
     columns: Option<&Columns>,
     topic: Option<&str>,
 ) -> Result<Vec<Track>, ReadError> {
+    let formats = paths
+        .iter()
+        .map(|p| format.map_or_else(|| Format::detect(p.as_ref()), Ok))
+        .collect::<Result<Vec<Format>, DatasetError>>()?;
     let bags: Vec<bool> = paths
         .iter()
-        .map(|p| format == Format::Rosbag2 || is_recording(p.as_ref()))
+        .zip(&formats)
+        .map(|(p, &f)| f == Format::Rosbag2 || is_recording(p.as_ref()))
         .collect();
     if bags.iter().any(|&b| b) {
         let mut all = Vec::new();
@@ -119,15 +127,22 @@ pub fn read_many_as(
         return Ok(all);
     }
     if topic.is_some() {
-        return Err(ReadError::TopicWithoutRecording(format));
+        return Err(ReadError::TopicWithoutRecording(
+            formats.first().copied().unwrap_or(Format::Csv),
+        ));
     }
-    match (format, columns) {
-        (Format::Csv | Format::Magni, Some(c)) => Ok(read_many_named(paths, c)?),
-        (Format::Thor | Format::Atc | Format::Rosbag2, Some(_)) => {
-            Err(ReadError::ColumnsWithoutHeader(format))
+    let mut all = Vec::new();
+    for (p, format) in paths.iter().zip(formats) {
+        let p = p.as_ref();
+        match (format, columns) {
+            (Format::Csv | Format::Magni, Some(c)) => all.extend(read_named(p, c)?.tracks),
+            (Format::Thor | Format::Atc | Format::Rosbag2, Some(_)) => {
+                return Err(ReadError::ColumnsWithoutHeader(format));
+            }
+            (_, None) => all.extend(read_tracks(p, format)?),
         }
-        (_, None) => Ok(read_many(paths, format)?),
     }
+    Ok(all)
 }
 
 /// Errors of [`read_many_as`].

@@ -64,6 +64,22 @@ pub enum DatasetError {
         /// What is wrong.
         message: String,
     },
+    /// A file whose format is not recognised from its start ([`Format::detect`]): it
+    /// could be none of the formats, or several of them (`choices`).
+    ///
+    /// [`Format::detect`]: super::Format::detect
+    #[error(
+        "{file}: the format is not recognised: {reason}; name it: {}",
+        super::Format::list(choices)
+    )]
+    Unrecognised {
+        /// The file.
+        file: String,
+        /// Why it is not recognised.
+        reason: String,
+        /// The formats it could be read as.
+        choices: Vec<super::Format>,
+    },
     /// Reading failed.
     #[error("{file}: {source}")]
     Io {

@@ -46,7 +46,7 @@ class Map:
         self,
         tracks: _Tracks,
         *,
-        format: str = "thor",
+        format: Optional[str] = None,
         radius: Optional[float] = None,
         topic: Optional[str] = None,
     ) -> Dict[str, float]: ...
@@ -81,7 +81,7 @@ class OnlineMap:
         radius: Optional[float] = None,
     ) -> None: ...
     def update(
-        self, tracks: _Tracks, *, format: str = "thor", topic: Optional[str] = None
+        self, tracks: _Tracks, *, format: Optional[str] = None, topic: Optional[str] = None
     ) -> Dict[str, int]: ...
     @property
     def count_scale(self) -> float: ...
@@ -190,7 +190,7 @@ def predict(
 def build_map(
     tracks: _Tracks,
     *,
-    format: str = "thor",
+    format: Optional[str] = None,
     grid: float = 1.0,
     radius: float = 1.0,
     topic: Optional[str] = None,
@@ -199,7 +199,7 @@ def evaluate(
     map: Map,
     tracks: _Tracks,
     *,
-    format: str = "thor",
+    format: Optional[str] = None,
     protocol: str = "seconds",
     obs: float = 3.2,
     dt: float = 0.4,

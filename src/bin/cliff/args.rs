@@ -195,8 +195,7 @@ pub fn non_negative(s: &str) -> Result<f64, String> {
 /// `map build`).
 #[derive(Args, Debug, Clone, Default)]
 pub struct ReadArgs {
-    /// Column names of a CSV with a header row (with `--format csv`, or to override
-    /// `magni`'s): `t=Time,id=ag_id,x=x,y=y`, optionally with `speed=`, `angle=` (rad),
+    /// Column names of a CSV with a header row (a csv file's, or to override `magni`'s): `t=Time,id=ag_id,x=x,y=y`, optionally with `speed=`, `angle=` (rad),
     /// `vx=`, `vy=`; without a velocity the positions give it.
     #[arg(long, value_name = "FIELD=COLUMN,...")]
     pub columns: Option<Columns>,
@@ -218,14 +217,17 @@ pub struct ReadArgs {
 /// Trajectory input shared by the learning commands.
 #[derive(Args, Debug)]
 pub struct TrackArgs {
-    /// Trajectory files (CSV without header: time, person_id, x, y, speed, motion_angle),
-    /// or rosbag2 recordings (MCAP files or bag folders of a people tracker, see --topic).
+    /// Trajectory files (THÖR or ATC CSV without header: time, person_id, x, y, speed,
+    /// motion_angle; THÖR-MAGNI or other CSV with a header row), or rosbag2 recordings
+    /// (MCAP files or bag folders of a people tracker, see --topic).
     #[arg(long, num_args = 1.., required = true, value_name = "FILE")]
     pub tracks: Vec<PathBuf>,
-    /// Trajectory file format: thor, atc, magni, csv or rosbag2 (MCAP files are read as
-    /// rosbag2 recordings whatever the format).
-    #[arg(long, default_value = "atc", value_parser = parse_format)]
-    pub format: Format,
+    /// Trajectory file format: thor, atc, magni (THÖR-MAGNI, header row), csv (header
+    /// row, see --columns) or rosbag2 [default: recognised from each file: a bag or
+    /// .mcap file, a header row, the time scale of six headerless columns]. MCAP files
+    /// are read as recordings whatever the format.
+    #[arg(long, value_parser = parse_format)]
+    pub format: Option<Format>,
     #[command(flatten)]
     pub read: ReadArgs,
 }

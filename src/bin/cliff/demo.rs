@@ -31,9 +31,10 @@ pub struct DemoArgs {
     /// Trajectory file [default: synthetic walkers in the demo hall].
     #[arg(long)]
     pub tracks: Option<PathBuf>,
-    /// Trajectory file format.
-    #[arg(long, default_value = "thor")]
-    pub format: Format,
+    /// Trajectory file format of --tracks: thor, atc, magni, csv or rosbag2 [default:
+    /// recognised from the file].
+    #[arg(long)]
+    pub format: Option<Format>,
     /// Synthetic walkers to make (without --tracks).
     #[arg(long, default_value_t = 40)]
     pub people: usize,

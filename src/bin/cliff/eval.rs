@@ -34,10 +34,11 @@ pub struct EvalArgs {
     #[arg(long, required = true, num_args = 1..)]
     pub tracks: Vec<PathBuf>,
     /// Trajectory file format: thor, atc, magni (THÖR-MAGNI, header row), csv (header
-    /// row, see --columns) or rosbag2 (MCAP files are read as recordings whatever the
-    /// format).
-    #[arg(long, default_value = "thor")]
-    pub format: Format,
+    /// row, see --columns) or rosbag2 [default: recognised from each file: a bag or
+    /// .mcap file, a header row, the time scale of six headerless columns]. MCAP files
+    /// are read as recordings whatever the format.
+    #[arg(long)]
+    pub format: Option<Format>,
     #[command(flatten)]
     pub read: ReadArgs,
     #[command(flatten)]

@@ -4,12 +4,12 @@
 
 use std::path::{Path, PathBuf};
 
-use anyhow::{Context, Result, bail};
+use anyhow::{Context, Result, anyhow, bail};
 use cliff::map::build::{Observation, observations_from_tracks, timed_observations_from_tracks};
 use cliff::map::{CliffMap, MapSet};
 use cliff::plot::{Floorplan, SummaryRow, read_per_person_spread, read_summary};
 use cliff::tracks::scene::{SceneOptions, demo_tracks};
-use cliff::tracks::{Format, Track, keep_time_range, read_many_as};
+use cliff::tracks::{DatasetError, Format, ReadError, Track, keep_time_range, read_many_as};
 
 use crate::args::{FloorplanArgs, ReadArgs, Spread, TrackArgs};
 
@@ -35,19 +35,39 @@ pub fn load_map_set(path: Option<&PathBuf>, clock_offset: Option<f64>) -> Result
     Ok(set)
 }
 
-/// Read trajectory files in `format`, every row.
-pub fn load_tracks(paths: &[PathBuf], format: Format) -> Result<Vec<Track>> {
+/// Read trajectory files in `format` (none: each file's own, recognised from it), every
+/// row.
+pub fn load_tracks(paths: &[PathBuf], format: Option<Format>) -> Result<Vec<Track>> {
     load_tracks_with(paths, format, &ReadArgs::default())
 }
 
-/// Read trajectory files with a column mapping and time range.
-pub fn load_tracks_with(paths: &[PathBuf], format: Format, read: &ReadArgs) -> Result<Vec<Track>> {
+/// Read trajectory files with a column mapping and time range; a file whose format is
+/// not recognised is an error that names the `--format` values to choose from.
+pub fn load_tracks_with(
+    paths: &[PathBuf],
+    format: Option<Format>,
+    read: &ReadArgs,
+) -> Result<Vec<Track>> {
     for p in paths {
         if !p.exists() {
             bail!("track file {} does not exist", p.display());
         }
     }
-    let mut tracks = read_many_as(paths, format, read.columns.as_ref(), read.topic.as_deref())?;
+    let mut tracks = read_many_as(paths, format, read.columns.as_ref(), read.topic.as_deref())
+        .map_err(|e| match &e {
+            ReadError::Dataset(DatasetError::Unrecognised {
+                file,
+                reason,
+                choices,
+            }) => {
+                let give: Vec<String> = choices.iter().map(|c| format!("--format {c}")).collect();
+                anyhow!(
+                    "{file}: the format is not recognised: {reason}; give {}",
+                    or_list(&give)
+                )
+            }
+            _ => e.into(),
+        })?;
     if read.time_from.is_some() || read.time_until.is_some() {
         let from = read.time_from.unwrap_or(f64::NEG_INFINITY);
         let until = read.time_until.unwrap_or(f64::INFINITY);
@@ -59,11 +79,19 @@ pub fn load_tracks_with(paths: &[PathBuf], format: Format, read: &ReadArgs) -> R
     Ok(tracks)
 }
 
+/// `a, b or c`.
+fn or_list(items: &[String]) -> String {
+    match items {
+        [init @ .., last] if !init.is_empty() => format!("{} or {last}", init.join(", ")),
+        _ => items.join(""),
+    }
+}
+
 /// The tracks of `plot predict`: the file given, or the demo walkers.
 pub fn tracks_or_demo(
     map: Option<&PathBuf>,
     tracks: Option<&PathBuf>,
-    format: Format,
+    format: Option<Format>,
 ) -> Result<Vec<Track>> {
     match (map, tracks) {
         (_, Some(t)) => load_tracks(std::slice::from_ref(t), format),

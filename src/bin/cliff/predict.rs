@@ -29,9 +29,12 @@ pub struct PredictArgs {
     /// Trajectory file holding the person.
     #[arg(long)]
     pub tracks: PathBuf,
-    /// Trajectory file format: thor, atc, magni, csv or rosbag2 (MCAP files are read as recordings whatever the format; see --topic).
-    #[arg(long, default_value = "thor")]
-    pub format: Format,
+    /// Trajectory file format: thor, atc, magni (THÖR-MAGNI, header row), csv (header
+    /// row, see --columns) or rosbag2 [default: recognised from each file: a bag or
+    /// .mcap file, a header row, the time scale of six headerless columns]. MCAP files
+    /// are read as recordings whatever the format.
+    #[arg(long)]
+    pub format: Option<Format>,
     #[command(flatten)]
     pub read: ReadArgs,
     /// Person id.

@@ -9,7 +9,7 @@ use std::process::ExitCode;
 use std::time::{Duration, Instant};
 
 use clap::Parser;
-use cliff::tracks::{Format, read_tracks};
+use cliff::tracks::{DatasetError, Format, read_tracks};
 use cliff_client::protocol::{MAX_OBSERVE_ROWS, Observation};
 use cliff_client::{Client, ClientOptions, Error, Field, ObserveRequest, Status};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
@@ -39,9 +39,10 @@ struct Args {
     #[arg(long, num_args = 1.., required = true, value_name = "FILE")]
     tracks: Vec<PathBuf>,
 
-    /// Trajectory file format: thor, atc, magni or csv.
-    #[arg(long, default_value = "atc", value_parser = |s: &str| s.parse::<Format>())]
-    format: Format,
+    /// Trajectory file format: thor, atc, magni or csv [default: recognised from each
+    /// file].
+    #[arg(long, value_parser = |s: &str| s.parse::<Format>())]
+    format: Option<Format>,
 
     /// Rows per second (default: as fast as the daemon accepts).
     #[arg(long, value_name = "ROWS")]
@@ -138,7 +139,26 @@ fn run(a: Args) -> Result<(), String> {
     let files = a
         .tracks
         .iter()
-        .map(|p| read_tracks(p, a.format).map_err(|e| e.to_string()))
+        .map(|p| {
+            let format = a.format.map_or_else(|| Format::detect(p), Ok);
+            format
+                .and_then(|f| read_tracks(p, f))
+                .map_err(|e| match &e {
+                    DatasetError::Unrecognised {
+                        file,
+                        reason,
+                        choices,
+                    } => {
+                        let give: Vec<String> =
+                            choices.iter().map(|c| format!("--format {c}")).collect();
+                        format!(
+                            "{file}: the format is not recognised: {reason}; give {}",
+                            give.join(" or ")
+                        )
+                    }
+                    _ => e.to_string(),
+                })
+        })
         .collect::<Result<Vec<_>, _>>()?;
     let feed = Feed::new(&files)?;
     let mut request = ObserveRequest::new(&a.map).map_err(|e| e.to_string())?;

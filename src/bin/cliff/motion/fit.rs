@@ -1,7 +1,7 @@
 //! `cliff motion fit`: a motion model fitted to recorded tracks, with a validation
 //! split's errors beside constant velocity's.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, bail};
 use clap::Args;
@@ -18,12 +18,13 @@ use crate::load::{load_tracks, load_tracks_with};
 pub struct FitArgs {
     #[command(flatten)]
     pub input: TrackArgs,
-    /// More trajectory files, each of its own format: FORMAT:FILE (thor, atc, magni,
-    /// csv or rosbag2), e.g. magni:../shared/data/magni/magni-A-first-16min.csv. Each is
-    /// a source of its own: the --tracks files together and each of these weigh the
-    /// same in the fit, however many windows they hold.
-    #[arg(long, num_args = 1.., value_name = "FORMAT:FILE", value_parser = format_file)]
-    pub more_tracks: Vec<(Format, PathBuf)>,
+    /// More trajectory files, each of its own format: FILE (the format recognised from
+    /// the file) or FORMAT:FILE (thor, atc, magni, csv or rosbag2), e.g.
+    /// magni:../shared/data/magni/magni-A-first-16min.csv. Each is a source of its own:
+    /// the --tracks files together and each of these weigh the same in the fit, however
+    /// many windows they hold.
+    #[arg(long, num_args = 1.., value_name = "[FORMAT:]FILE", value_parser = format_file)]
+    pub more_tracks: Vec<(Option<Format>, PathBuf)>,
     /// Output model file (.motion).
     #[arg(long, value_name = "FILE")]
     pub out: PathBuf,
@@ -47,11 +48,26 @@ pub struct FitArgs {
     pub validation: f64,
 }
 
-fn format_file(s: &str) -> Result<(Format, PathBuf), String> {
-    let (format, file) = s
-        .split_once(':')
-        .ok_or_else(|| format!("'{s}' is not FORMAT:FILE (e.g. magni:recording.csv)"))?;
-    Ok((format.parse()?, PathBuf::from(file)))
+/// `FORMAT:FILE`, or `FILE` alone (also when what precedes a colon names no format).
+fn format_file(s: &str) -> Result<(Option<Format>, PathBuf), String> {
+    if s.is_empty() {
+        return Err("names no file: expected [FORMAT:]FILE (e.g. magni:recording.csv)".into());
+    }
+    Ok(match s.split_once(':') {
+        Some((format, file)) if format.parse::<Format>().is_ok() && !file.is_empty() => {
+            (format.parse().ok(), PathBuf::from(file))
+        }
+        _ => (None, PathBuf::from(s)),
+    })
+}
+
+/// The name of a source: `FORMAT:FILE`, with the format named or recognised.
+fn source(format: Option<Format>, file: &Path) -> String {
+    let format = format.map_or_else(|| Format::detect(file), Ok);
+    match format {
+        Ok(f) => format!("{f}:{}", file.display()),
+        Err(_) => file.display().to_string(),
+    }
 }
 
 /// Run `cliff motion fit`.
@@ -68,11 +84,11 @@ pub fn run(a: FitArgs) -> Result<()> {
         .input
         .tracks
         .iter()
-        .map(|p| format!("{}:{}", a.input.format, p.display()))
+        .map(|p| source(a.input.format, p))
         .collect();
     for (format, file) in &a.more_tracks {
         groups.push(load_tracks(std::slice::from_ref(file), *format)?);
-        sources.push(format!("{format}:{}", file.display()));
+        sources.push(source(*format, file));
     }
     let steps = (a.horizon / MODEL_DT).round();
     if !(steps >= 1.0 && steps <= cliff::motion::MAX_MODEL_STEPS as f64) {
@@ -180,5 +196,24 @@ fn print_errors(errors: &[HorizonErrors]) {
             "{:>5.1} s {:>9} {:>11.3} {:>13.3} {:>11.3} {:>13.3}",
             e.horizon, e.windows, e.ade, e.cvm_ade, e.fde, e.cvm_fde
         );
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn more_tracks_take_a_format_or_a_file_alone() {
+        let f = |s: &str| format_file(s).unwrap();
+        assert_eq!(
+            f("magni:a.csv"),
+            (Some(Format::Magni), PathBuf::from("a.csv"))
+        );
+        assert_eq!(f("a.csv"), (None, PathBuf::from("a.csv")));
+        // a colon that follows no format's name is part of the file's name
+        assert_eq!(f("run:2.csv"), (None, PathBuf::from("run:2.csv")));
+        assert_eq!(f("thor:"), (None, PathBuf::from("thor:")));
+        assert!(format_file("").is_err());
     }
 }

@@ -23,9 +23,10 @@ pub struct PredictPlotArgs {
     /// demo hall's synthetic walkers (ids 1 to 40).
     #[arg(long)]
     pub tracks: Option<PathBuf>,
-    /// Trajectory file format.
-    #[arg(long, default_value = "thor")]
-    pub format: Format,
+    /// Trajectory file format: thor, atc, magni, csv or rosbag2 [default: recognised
+    /// from the file].
+    #[arg(long)]
+    pub format: Option<Format>,
     /// Person id.
     #[arg(long)]
     pub person: u64,
