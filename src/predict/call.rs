@@ -6,8 +6,8 @@ use super::candidates::{Candidates, rank};
 use super::cvm::{cvm_score, roll_cvm};
 use super::lanes::{ANY, Extras, Lane, Lanes, PAPER, SPEED};
 use super::motion::{
-    bend_to_motion, last_displacement, map_trust, motion_path, motion_score, roll_motion,
-    sample_normal,
+    bend_to_motion, history_of, last_displacement, map_trust, motion_path, motion_score,
+    roll_motion, sample_normal,
 };
 use super::seeds::agent_key;
 use super::{BatchMut, Method, Params, Point};
@@ -89,18 +89,16 @@ impl Call<'_, '_> {
     pub(super) fn motion(mut self) {
         let steps = self.params.steps();
         let k = self.params.k;
+        let path = &mut self.scratch.motion_path;
         for (a, state) in self.agents.iter().enumerate() {
-            let history = match self.histories {
-                Some(h) => h[a],
-                None => History::from_state(state),
-            };
-            let forecast = self.motion.forecast(&history);
+            let history = history_of(self.histories, a, state);
+            motion_path(&self.motion.forecast(&history), self.params.dt, steps, path);
             let key = agent_key(self.seed, self.first_agent + a as u64);
             let tracks = &mut self.out.positions[a * k * steps..(a + 1) * k * steps];
             let lens = &mut self.out.lens[a * k..(a + 1) * k];
             for (s, (track, len)) in tracks.chunks_exact_mut(steps).zip(lens).enumerate() {
                 let z = sample_normal(key, s);
-                roll_motion(&forecast, self.params.dt, z, track);
+                roll_motion(path, z, track);
                 *len = steps as u32;
                 if let Some(scores) = self.scores.as_deref_mut() {
                     scores[a * k + s] = motion_score(z);
@@ -165,10 +163,7 @@ impl Call<'_, '_> {
             // the samples bent towards the motion model (`motion.rs`)
             let bend = |tracks: &mut [Point], lens: &mut [u32], path: &mut Vec<_>| {
                 let observed = &agents[a];
-                let history = match histories {
-                    Some(h) => h[a],
-                    None => History::from_state(observed),
-                };
+                let history = history_of(histories, a, observed);
                 motion_path(&motion.forecast(&history), params.dt, steps, path);
                 let step = DVec2::from_angle(observed.heading) * (observed.speed * params.dt);
                 bend_to_motion(

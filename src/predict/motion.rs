@@ -45,11 +45,35 @@ pub(super) fn sample_normal(key: u64, s: usize) -> DVec2 {
     DVec2::new(a as f64, b as f64)
 }
 
-/// Write the forecast's positions at `dt, 2 dt, ...` on the path `z` into `track`.
+/// Agent `a`'s observed path: its history when the caller gave them, else the path of
+/// constant velocity up to its state.
 #[inline]
-pub(super) fn roll_motion(forecast: &Forecast<'_>, dt: f64, z: DVec2, track: &mut [Point]) {
+pub(super) fn history_of(histories: Option<&[History]>, a: usize, state: &State) -> History {
+    match histories {
+        Some(h) => h[a],
+        None => History::from_state(state),
+    }
+}
+
+/// The motion model's path of one agent at the call's steps, computed once per agent
+/// ([`motion_path`]): the mean and the world frame's spread factor at each step.
+pub(super) type MotionPath = [([f64; 2], [f64; 4])];
+
+/// The position at step `j` of `path` on the normal pair `z`.
+#[inline]
+pub(super) fn path_point(path: &MotionPath, j: usize, z: DVec2) -> DVec2 {
+    let (m, f) = path[j];
+    DVec2::new(
+        m[0] + f[0] * z.x + f[1] * z.y,
+        m[1] + f[2] * z.x + f[3] * z.y,
+    )
+}
+
+/// Write the positions of `path` on the normal pair `z` into `track`.
+#[inline]
+pub(super) fn roll_motion(path: &MotionPath, z: DVec2, track: &mut [Point]) {
     for (j, out) in track.iter_mut().enumerate() {
-        let p = forecast.position((j + 1) as f64 * dt, z);
+        let p = path_point(path, j, z);
         *out = [p.x as f32, p.y as f32];
     }
 }
@@ -132,7 +156,7 @@ pub(super) fn motion_path(
 /// `blend` the blend's seconds (0: none), `key` the agent's key.
 #[allow(clippy::too_many_arguments)]
 pub(super) fn bend_to_motion(
-    path: &[([f64; 2], [f64; 4])],
+    path: &MotionPath,
     trust: f64,
     cv: (DVec2, DVec2),
     dt: f64,
@@ -148,13 +172,7 @@ pub(super) fn bend_to_motion(
         .enumerate()
     {
         let z = sample_normal(key, s);
-        let at = |j: usize| {
-            let (m, f) = path[j];
-            DVec2::new(
-                m[0] + f[0] * z.x + f[1] * z.y,
-                m[1] + f[2] * z.x + f[3] * z.y,
-            )
-        };
+        let at = |j: usize| path_point(path, j, z);
         let reached = (*len as usize).min(steps);
         let mut last = DVec2::ZERO;
         for (j, out) in track.iter_mut().enumerate() {
