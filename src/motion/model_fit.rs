@@ -149,15 +149,16 @@ fn each_window(tracks: &[Track], fit: &MotionFit, mirrored: bool, mut f: impl Fn
     let mut targets: Vec<DVec2> = Vec::with_capacity(fit.steps);
     let jump = fit.max_speed * MODEL_DT;
     for track in tracks {
-        for piece in track.rows.split_inclusive_gaps(fit.max_gap) {
+        // the pieces the tracker followed without losing the person
+        for piece in track.rows.chunk_by(|a, b| b.t - a.t <= fit.max_gap) {
             on_grid(piece, &mut grid);
-            let last_jump_before = |m: usize| {
+            let jump_in_history = |m: usize| {
                 grid[m + 1 - HISTORY_POINTS..=m]
                     .windows(2)
                     .any(|w| w[0].distance(w[1]) > jump)
             };
             for m in HISTORY_POINTS - 1..grid.len().saturating_sub(1) {
-                if last_jump_before(m) {
+                if jump_in_history(m) {
                     continue;
                 }
                 let mut points = [DVec2::ZERO; HISTORY_POINTS];
@@ -200,29 +201,6 @@ fn each_window(tracks: &[Track], fit: &MotionFit, mirrored: bool, mut f: impl Fn
                 }
             }
         }
-    }
-}
-
-/// Splitting a track's rows where the tracker lost the person.
-trait Gaps {
-    fn split_inclusive_gaps(&self, max_gap: f64) -> impl Iterator<Item = &Self>;
-}
-
-impl Gaps for [crate::tracks::Row] {
-    fn split_inclusive_gaps(&self, max_gap: f64) -> impl Iterator<Item = &Self> {
-        let mut start = 0;
-        let mut i = 0;
-        std::iter::from_fn(move || {
-            while start < self.len() {
-                i += 1;
-                if i >= self.len() || self[i].t - self[i - 1].t > max_gap {
-                    let piece = &self[start..i];
-                    start = i;
-                    return Some(piece);
-                }
-            }
-            None
-        })
     }
 }
 

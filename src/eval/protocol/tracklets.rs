@@ -71,14 +71,9 @@ fn each_tracklet(track: &Track, s: &Settings, mut f: impl FnMut(Case) -> bool) {
     let len = obs + pred;
     let rows = &track.rows;
     let mut number = 0u32;
-    let mut start = 0;
-    while start < rows.len() {
-        // the contiguous piece from `start`
-        let mut end = start + 1;
-        while end < rows.len() && rows[end].t - rows[end - 1].t <= 1.5 * s.dt + 1e-9 {
-            end += 1;
-        }
-        for chunk in rows[start..end].chunks_exact(len) {
+    // the contiguous pieces, each cut back to back
+    for piece in rows.chunk_by(|a, b| b.t - a.t <= 1.5 * s.dt + 1e-9) {
+        for chunk in piece.chunks_exact(len) {
             number += 1;
             if let Some(case) = tracklet_case(track.id, chunk, obs, s, number)
                 && !f(case)
@@ -86,7 +81,6 @@ fn each_tracklet(track: &Track, s: &Settings, mut f: impl FnMut(Case) -> bool) {
                 return;
             }
         }
-        start = end;
     }
 }
 
