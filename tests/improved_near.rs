@@ -38,6 +38,7 @@ struct Pair {
 }
 
 /// Every case's errors per step for `method`, into `out` (one entry per step).
+#[allow(clippy::too_many_arguments)]
 fn errors_of(
     map: &CliffMap,
     case: &Case,
