@@ -147,7 +147,7 @@ if want predictor; then
         [ "$list" = 1 ] || oc=$(bench_binary cliff options_cost)
         for p in thor1 atc; do
             for path in '' baseline; do
-                row predictor "instructions, the paper's method, $p ${path:-both paths}" 'Collected|summary|totals' \
+                row predictor "instructions, the paper's method, $p ${path:-both paths}" 'TOTALS|predict_agents|Collected' \
                     "valgrind --tool=callgrind --callgrind-out-file=$out/callgrind.$p${path:+.$path} $oc 10 20 none $p $path && callgrind_annotate --inclusive=yes $out/callgrind.$p${path:+.$path} | grep -m3 -E 'predict_agents|TOTALS|PROGRAM'"
             done
         done
