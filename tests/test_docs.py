@@ -488,6 +488,26 @@ def test_benchmarks_page_holds_todays_figures() -> None:
     assert "docs/performance-history.md" in text, "BENCHMARKS.md does not link the history page"
 
 
+def test_remeasure_script_runs_every_benchmark_of_the_page() -> None:
+    """benches/remeasure.sh (the rows of BENCHMARKS.md in one session) names every bench
+    script and cargo bench the page's rows name; `--list` runs nothing."""
+    text = (REPO / "BENCHMARKS.md").read_text(encoding="utf-8")
+    subjects = ["predictor", "motion", "accuracy", "ros2", "build", "python", "daemon", "sharing",
+                "zenoh", "zenoh-build", "learning"]
+    out = subprocess.run(["bash", str(REPO / "benches" / "remeasure.sh"), "--list", *subjects],
+                         capture_output=True, text=True, timeout=60, cwd=REPO)
+    assert out.returncode == 0, out.stderr
+    listed = out.stdout
+    named = set(re.findall(r"benches/(\w+\.(?:sh|py))", text)) - {"remeasure.sh"}
+    named |= {f"--bench {b}" for b in re.findall(r"--bench (\w+)", text)}
+    assert named, "BENCHMARKS.md names no bench"
+    missing = sorted(n for n in named if n not in listed)
+    assert not missing, f"benches/remeasure.sh does not run: {missing}"
+    bad = subprocess.run(["bash", str(REPO / "benches" / "remeasure.sh"), "--list", "no-such-subject"],
+                         capture_output=True, text=True, timeout=60, cwd=REPO)
+    assert bad.returncode != 0 and "no-such-subject" in bad.stderr
+
+
 def test_guide_speaks_in_the_present() -> None:
     """README.md and the guide say what the software does now; words of its past
     belong on the history page."""
