@@ -294,10 +294,10 @@ pub struct Checkpoint {
 /// fifth of the horizon (ranked with the flow walk), at half and at eight tenths, each
 /// going on twice, from `2 k` candidates (the `improved` preset). So the candidates
 /// roll 1.2 times the kept samples' steps, and the samples are chosen three times, the
-/// better half each time (BENCHMARKS.md, "Resampling the best candidates"): more accurate on average and
-/// further reaching than four candidates per sample cut to two at a fifth and to one at
-/// seven tenths (2.1 times the steps), less diverse (pairs of samples share their path
-/// up to the last checkpoint).
+/// better half each time (docs/performance-history.md, "Resampling the best
+/// candidates"): more accurate on average and further reaching than four candidates per
+/// sample cut to two at a fifth and to one at seven tenths (2.1 times the steps), less
+/// diverse (pairs of samples share their path up to the last checkpoint).
 pub const PRUNE_SCHEDULE: &[Checkpoint] = &[
     Checkpoint {
         at: 0.2,
