@@ -111,6 +111,12 @@ struct Args {
     #[arg(long, default_value_t = 1000)]
     idle_spin_us: u64,
 
+    /// Motion model file (.motion, made by `cliff motion fit`) that the methods motion
+    /// and improved start from. Default: the built-in model (fitted on ATC's training
+    /// hours; see docs/motion.md).
+    #[arg(long, value_name = "FILE")]
+    motion_model: Option<PathBuf>,
+
     /// Threads that predict chunks in parallel (of different requests, or of one large
     /// request alone); the serving thread is one of them. Default: the number of cores.
     /// 1: the serving thread does everything (lowest CPU use).
@@ -376,6 +382,7 @@ fn run() -> Result<ExitCode, String> {
         idle_spin: Duration::from_micros(args.idle_spin_us),
         cleanup_interval: Duration::from_millis(args.cleanup_interval_ms.max(1)),
         workers: args.workers,
+        motion_model: args.motion_model,
         learn: LearnSettings {
             maps: learned.clone(),
             dir: args.learn_dir,

@@ -1,6 +1,6 @@
 //! cliffd's life: killed and restarted under traffic, clean shutdown on signals, map
 //! reloads that keep the old map when the new one fails, started from a configuration
-//! file.
+//! file, with a motion model file.
 
 mod common;
 
@@ -9,7 +9,9 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
 use cliff::map::{CliffMap, write_csv};
+use cliff::motion::{MotionFit, MotionModel, fit_motion_model};
 use cliff::predict::{Method, Params};
+use cliff::tracks::{Format, read_tracks};
 use cliff_client::{Client, ClientOptions, Error, Observation, Request, Status, WaitMode};
 use common::*;
 
@@ -402,6 +404,90 @@ fn a_bad_configuration_file_stops_cliffd_naming_the_file_and_the_line() {
     let err = start(&missing);
     assert!(
         err.contains(&format!("--config {}: No such file", missing.display())),
+        "{err}"
+    );
+}
+
+/// A motion model fitted on THÖR1's round 2 (unlike the built-in one, fitted on ATC),
+/// written to `dir`.
+fn thor_motion_model(dir: &std::path::Path) -> (std::path::PathBuf, Arc<MotionModel>) {
+    let tracks = read_tracks(&shared_data("thor1/exp-1-run-2.csv"), Format::Thor).unwrap();
+    let model = fit_motion_model(&tracks, &MotionFit::default()).expect("fit");
+    let file = dir.join("thor1.motion");
+    model.save(&file).unwrap();
+    (file, Arc::new(model))
+}
+
+#[test]
+fn a_motion_model_file_is_what_motion_and_improved_start_from() {
+    let ns = Namespace::new("motionmodel");
+    let dir = tempfile::tempdir().unwrap();
+    let (file, model) = thor_motion_model(dir.path());
+    let thor_file = shared_data("thor1/cliffmap.csv");
+    let thor = CliffMap::load(&thor_file).unwrap();
+    let map_arg = format!("hall={}", thor_file.display());
+    let model_arg = file.display().to_string();
+    let _daemon = Daemon::start(&ns, &["--map", &map_arg, "--motion-model", &model_arg]);
+    let mut client = ns.connect(WaitMode::Hybrid);
+    for method in [Method::Motion, Method::Improved] {
+        let mut req = Request::new(
+            "hall",
+            &Params {
+                method,
+                k: 8,
+                seed: 3,
+                ..Params::default()
+            },
+        )
+        .unwrap();
+        for l in thor.locations().iter().step_by(37).take(3) {
+            let (x, y) = (l.position.x, l.position.y);
+            req.add_agent((0..6).map(|j| {
+                // a walker turning a little: the models' forecasts differ
+                let t = j as f64 * 0.4;
+                Observation::position(t, x + 0.5 * t, y + 0.05 * t * t)
+            }));
+        }
+        let p = client.predict(&req).expect("served");
+        let served = (p.shape(), bits(p.positions(), p.lens()));
+        let with_file = {
+            let mut lp = cliff_client::LocalPredictor::default().with_motion_model(model.clone());
+            let b = lp.predict(&thor, req.header(), req.rows()).unwrap();
+            (b.shape(), bits(b.positions(), b.lens()))
+        };
+        assert_eq!(
+            served, with_file,
+            "{method:?}: the daemon = in-process with the file's model"
+        );
+        assert_ne!(
+            served,
+            local_bits(&thor, &req),
+            "{method:?}: the file's model is not the built-in one"
+        );
+    }
+}
+
+#[test]
+fn a_bad_motion_model_file_stops_cliffd_naming_it() {
+    let ns = Namespace::new("badmotion");
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("broken.motion");
+    std::fs::write(&file, b"CLIFFMOT but not a model").unwrap();
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_cliffd"))
+        .args([
+            "--service",
+            SERVICE,
+            "--prefix",
+            &ns.prefix,
+            "--motion-model",
+        ])
+        .arg(&file)
+        .output()
+        .expect("run cliffd");
+    assert!(!out.status.success(), "cliffd started");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("motion model") && err.contains(&file.display().to_string()),
         "{err}"
     );
 }
