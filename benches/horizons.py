@@ -1,8 +1,10 @@
 #!/usr/bin/env python3
-"""`improved` against constant velocity and the paper at every horizon, on held-out data
-(the tables of docs/accuracy.md, "Every horizon").
+"""`improved` against the motion model alone, constant velocity and the paper at every
+horizon, on held-out data, with the right map and with a wrong one (the tables of
+docs/accuracy.md, "Every horizon").
 
-Runs `cliff eval --methods cliff,improved,cvm` (`cliff` is the paper's method) on
+Runs `cliff eval --methods cliff,improved,cvm,motion` (`cliff` is the paper's method,
+`motion` the built-in motion model alone, no map) on
 
 * THÖR1 and THÖR3: round 2's people, the shipped maps (built from round 1), 12 s;
 * THÖR-MAGNI: windows over the recording's last 8 minutes, a map from its first 8
@@ -10,19 +12,22 @@ Runs `cliff eval --methods cliff,improved,cvm` (`cliff` is the paper's method) o
   setting (4.8 s);
 * ATC: atc/dev (the odd hours), a map from atc/train only, 50 s;
 
-and, for the ablation, `--methods cliff` with the preset's options less one part. Every
-comparison is paired: means over the people (windows) that both methods predict at that
-horizon. Prints Markdown tables:
+each with its right map and with the same map turned 90 degrees (every component's
+direction; a map that is wrong everywhere, written as CSV, so without the speed prior a
+snapshot keeps), and, for the ablation (right maps), `--methods cliff` with the
+preset's options less one part. Every person counts at every horizon (a sample that
+stopped counts where it stopped, `cliff eval`'s default), and every comparison is
+paired over the same people (windows). Prints Markdown tables:
 
-1. per data set, improved's mean ADE and FDE as a share of constant velocity's: the
-   largest over every horizon after the first step, and at some horizons; and of the
-   paper's at the long horizons; the top-1 (best-ranked) sample against constant
-   velocity; the reach (share of people a prediction reaches) of improved and the paper;
+1. per data set and map, improved's mean ADE and FDE as a share of the motion model's:
+   the largest over every horizon; of constant velocity's and the paper's at some
+   horizons; the top-1 (best-ranked) sample against the motion model's and constant
+   velocity's; the reach of the paper's method (improved reaches every horizon);
 2. the ablation: the same figures for the preset less each of its parts.
 
     python3 benches/horizons.py [--cliff target/release/cliff] [--seeds 10] [--out DIR] [--no-ablation]
 
-About five minutes on two cores (the ATC map build and the ATC runs take most).
+About ten minutes on two cores (the ATC map build and the ATC runs take most).
 The summaries it writes (DIR/<data>/summary.csv) draw with `cliff plot curves`.
 Standard library only.
 """
@@ -46,10 +51,12 @@ PARTS = {
     "trust": ["--trust", "0.5"],
     "blend": ["--blend", "3"],
     "consensus": ["--rank", "consensus"],
+    "motion": ["--motion"],
 }
 # (label, parts left out, extra options)
 ABLATION = [
     ("`improved`", [], []),
+    ("without the motion model (`--motion`)", ["motion"], []),
     ("without trust", ["trust"], []),
     ("without blend", ["blend"], []),
     ("ranked by likelihood", ["consensus"], []),
@@ -57,8 +64,6 @@ ABLATION = [
     ("without candidates", ["candidates"], []),
     ("without the speed prior", ["speed prior"], []),
     ("with the paper's beta 1", ["beta"], []),
-    ("without trust, blend and consensus (the earlier preset)", ["trust", "blend", "consensus"], []),
-    ("with `--coast 50` (every sample reaches the horizon)", [], ["--coast", "50"]),
 ]
 # where the long-range comparisons with the paper are made
 LONG = {"thor1": [4.0, 12.0], "thor3": [4.0, 12.0], "magni-4.8": [4.8], "magni-12": [12.0], "atc": [5.0, 20.0, 50.0]}
@@ -78,11 +83,12 @@ def run(cmd):
     return r.stdout
 
 
-def eval_args(data, maps):
-    thor = lambda n: ["--map", f"{DATA}/thor{n}/cliffmap.csv", "--tracks", f"{DATA}/thor{n}/exp-{n}-run-2.csv",
+def eval_args(data, maps, turned=False):
+    pick = lambda key: maps[key + " turned"] if turned else maps[key]
+    thor = lambda n: ["--map", pick(f"thor{n}"), "--tracks", f"{DATA}/thor{n}/exp-{n}-run-2.csv",
                       "--format", "thor", "--protocol", "reference", "--obs", "3.2", "--dt", "0.4",
                       "--horizon", "12", "--radius", "0.7071"]
-    magni = lambda h: ["--map", maps["magni"], "--tracks", f"{DATA}/magni/magni-A-first-16min.csv", "--format",
+    magni = lambda h: ["--map", pick("magni"), "--tracks", f"{DATA}/magni/magni-A-first-16min.csv", "--format",
                        "magni", "--time-from", "480", "--protocol", "windows", "--obs", "3.2", "--dt", "0.4",
                        "--horizon", h, "--window-every", "4"]
     return {
@@ -90,7 +96,7 @@ def eval_args(data, maps):
         "thor3": thor(3),
         "magni-4.8": magni("4.8"),
         "magni-12": magni("12"),
-        "atc": ["--map", maps["atc"], "--tracks", *sorted(glob.glob(f"{DATA}/atc/dev/*.csv")), "--format", "atc",
+        "atc": ["--map", pick("atc"), "--tracks", *sorted(glob.glob(f"{DATA}/atc/dev/*.csv")), "--format", "atc",
                 "--protocol", "seconds", "--dt", "1", "--horizon", "50", "--radius", "1"],
     }[data]
 
@@ -121,16 +127,31 @@ def ratio(rows, a, b, h, col="ade"):
     return p[0] / p[1] if p else float("nan")
 
 
-def worst_vs_cvm(rows, method):
+def worst_vs(rows, method, base="motion"):
+    """The largest ratio of `method`'s mean ADE or FDE to `base`'s over every horizon."""
     hs = sorted({k[1] for k in rows if k[0] == method})
     worst = (0.0, "")
-    for h in hs[1:]:
+    for h in hs:
         for col in ("ade", "fde"):
-            r = ratio(rows, method, "cvm", h, col)
+            r = ratio(rows, method, base, h, col)
             if r > worst[0]:
                 worst = (r, f"{h:g} s {col.upper()}")
-    first = max(ratio(rows, method, "cvm", hs[0], c) for c in ("ade", "fde"))
-    return worst, first
+    return worst
+
+
+def map_rows(path):
+    with open(path) as f:
+        return [[float(v) for v in row] for row in csv.reader(f) if row]
+
+
+def write_turned(src, dst, degrees=90.0):
+    """The CSV map `src` with every component's direction turned `degrees`."""
+    import math
+    with open(dst, "w", newline="") as f:
+        w = csv.writer(f)
+        for r in map_rows(src):
+            r[2] = (r[2] + math.radians(degrees)) % (2 * math.pi)
+            w.writerow([repr(v) for v in r])
 
 
 def reach(summary, method, h):
@@ -150,19 +171,32 @@ def main():
     a = ap.parse_args()
     ablation = ABLATION[:1] if a.no_ablation else ABLATION
     os.makedirs(a.out, exist_ok=True)
-    maps = {"magni": os.path.join(a.out, "magni-first8.cliff"), "atc": os.path.join(a.out, "atc-train.cliff")}
-    if not os.path.exists(maps["magni"]):
-        run([a.cliff, "map", "build", "--tracks", f"{DATA}/magni/magni-A-first-16min.csv", "--format", "magni",
-             "--time-until", "480", "--grid", "0.5", "--radius", "0.5", "--out", maps["magni"]])
-    if not os.path.exists(maps["atc"]):
-        run([a.cliff, "map", "build", "--tracks", *sorted(glob.glob(f"{DATA}/atc/train/*.csv")), "--format", "atc",
-             "--grid", "1", "--radius", "1", "--out", maps["atc"]])
+    maps = {"magni": os.path.join(a.out, "magni-first8.cliff"), "atc": os.path.join(a.out, "atc-train.cliff"),
+            "thor1": f"{DATA}/thor1/cliffmap.csv", "thor3": f"{DATA}/thor3/cliffmap.csv"}
+    magni_build = ["--tracks", f"{DATA}/magni/magni-A-first-16min.csv", "--format", "magni",
+                   "--time-until", "480", "--grid", "0.5", "--radius", "0.5"]
+    atc_build = ["--tracks", *sorted(glob.glob(f"{DATA}/atc/train/*.csv")), "--format", "atc",
+                 "--grid", "1", "--radius", "1"]
+    for key, build in (("magni", magni_build), ("atc", atc_build)):
+        # the snapshot (with its speed prior) and the CSV to turn
+        for path in (maps[key], maps[key][:-len(".cliff")] + ".csv"):
+            if not os.path.exists(path):
+                run([a.cliff, "map", "build", *build, "--out", path])
+    for key in ("thor1", "thor3", "magni", "atc"):
+        csv_map = maps[key] if maps[key].endswith(".csv") else maps[key][:-len(".cliff")] + ".csv"
+        maps[key + " turned"] = os.path.join(a.out, f"{key}-turned90.csv")
+        write_turned(csv_map, maps[key + " turned"])
     results = {}
+    turned_results = {}
     for data in LONG:
         out = os.path.join(a.out, data)
-        run([a.cliff, "eval", *eval_args(data, maps), "--seeds", a.seeds, "--methods", "cliff,improved,cvm",
+        run([a.cliff, "eval", *eval_args(data, maps), "--seeds", a.seeds, "--methods", "cliff,improved,cvm,motion",
              "--out", out])
         results[data] = load(os.path.join(out, "per_person.csv"))
+        tout = os.path.join(a.out, data + "-turned")
+        run([a.cliff, "eval", *eval_args(data, maps, turned=True), "--seeds", a.seeds,
+             "--methods", "cliff,improved,cvm,motion", "--out", tout])
+        turned_results[data] = (load(os.path.join(tout, "per_person.csv")), os.path.join(tout, "summary.csv"))
         for i, (label, left_out, extra) in enumerate(ablation[1:], 1):
             opts = [o for p, v in PARTS.items() if p not in left_out for o in v] + extra
             vout = os.path.join(a.out, f"{data}-variant-{i}")
@@ -175,26 +209,30 @@ def main():
                     results[data][(label, h, k)] = r
             results[data][("summary", label)] = os.path.join(vout, "summary.csv")
 
-    print("| data | worst ADE or FDE / constant velocity's (first step) | "
-          "at the horizons shown | / the paper's | top-1 ADE / FDE vs constant velocity | reach: improved, paper |")
+    print("| data, map | worst mean ADE or FDE / motion model's | / constant velocity's | / the paper's | "
+          "top-1 ADE / FDE vs the motion model's, vs constant velocity's | reach of the paper's |")
     print("|---|---|---|---|---|---|")
-    for data, rows in results.items():
-        (w, where), first = worst_vs_cvm(rows, "improved")
-        shown = ", ".join(f"{h:g} s {ratio(rows, 'improved', 'cvm', h):.3f}" for h in SHOW[data])
-        long = ", ".join(f"{h:g} s {ratio(rows, 'improved', 'cliff', h):.3f}" for h in LONG[data])
-        h = LONG[data][-1]
-        top = f"{ratio(rows, 'improved', 'cvm', h, 'top1_ade'):.3f} / {ratio(rows, 'improved', 'cvm', h, 'top1_fde'):.3f} at {h:g} s"
-        summary = os.path.join(a.out, data, "summary.csv")
-        rc = f"{reach(summary, 'improved', h):.0%}, {reach(summary, 'cliff', h):.0%} at {h:g} s"
-        print(f"| {data} | {w:.3f} at {where} ({first:.4f}) | {shown} | {long} | {top} | {rc} |")
+    for data in LONG:
+        for label, rows, summary in (("right", results[data], os.path.join(a.out, data, "summary.csv")),
+                                     ("turned 90°", *turned_results[data])):
+            w, where = worst_vs(rows, "improved")
+            shown = ", ".join(f"{h:g} s {ratio(rows, 'improved', 'cvm', h):.3f}" for h in SHOW[data])
+            long = ", ".join(f"{h:g} s {ratio(rows, 'improved', 'cliff', h):.3f}" for h in LONG[data])
+            h = LONG[data][-1]
+            top = (f"{ratio(rows, 'improved', 'motion', h, 'top1_ade'):.3f} / "
+                   f"{ratio(rows, 'improved', 'motion', h, 'top1_fde'):.3f}, "
+                   f"{ratio(rows, 'improved', 'cvm', h, 'top1_ade'):.3f} / "
+                   f"{ratio(rows, 'improved', 'cvm', h, 'top1_fde'):.3f} at {h:g} s")
+            rc = f"{reach(summary, 'cliff', h):.0%} at {h:g} s"
+            print(f"| {data}, {label} | {w:.3f} at {where} | {shown} | {long} | {top} | {rc} |")
 
     print()
-    print("| variant | worst / constant velocity (all data, after the first step) | THÖR1 4 s / cvm | "
+    print("| variant | worst / the motion model (all data, right maps) | THÖR1 4 s / cvm | "
           "MAGNI 4.8 s / cvm (top-1 ADE / FDE) | MAGNI 12 s / paper | ATC 5 / 20 / 50 s / paper | ATC reach 50 s |")
     print("|---|---|---|---|---|---|---|")
     for label, _, _ in ablation:
         m = "improved" if label == "`improved`" else label
-        worst = max((worst_vs_cvm(rows, m)[0] + (d,) for d, rows in results.items()), key=lambda x: x[0])
+        worst = max((worst_vs(rows, m) + (d,) for d, rows in results.items()), key=lambda x: x[0])
         r = results
         atc = " / ".join(f"{ratio(r['atc'], m, 'cliff', h):.3f}" for h in (5.0, 20.0, 50.0))
         summary = os.path.join(a.out, "atc", "summary.csv") if m == "improved" else r["atc"][("summary", label)]

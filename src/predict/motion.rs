@@ -25,9 +25,10 @@
 //!   are far from independent, hence the weight 0.3; the clamp keeps one odd step from
 //!   deciding). A step with no location near counts -2. No moving step: `e = 1/2`. No
 //!   location near any moving step: `e = 0`, the motion model alone;
-//! * **growing with the horizon**: `w(t) = e^(exp(-t / 5 s))`, so near the present the
-//!   share is the evidence and far out any map with evidence for the person leads (the
-//!   motion model knows the next seconds; the map knows where people go).
+//! * **growing with the horizon**: `w(t) = e^max(exp(-t / 5 s), 1/2)`, so near the
+//!   present the share is the evidence and from about 3.5 s on its square root: far out
+//!   a map with evidence for the person leads (the motion model knows the next seconds;
+//!   the map knows where people go), and one with little still does not.
 //!
 //! So where the map is wrong or missing the samples are the motion model's, and where it
 //! is right they are the map's, starting from the motion model near the present. Every
@@ -125,8 +126,8 @@ const EVIDENCE_WEIGHT: f64 = 0.3;
 /// a step with no map location near counts its negative.
 const EVIDENCE_CLAMP: f64 = 2.0;
 
-/// Seconds over which the map's share grows from its evidence towards 1:
-/// `w(t) = e^(exp(-t / SHARE_GROWTH))`.
+/// Seconds over which the map's share grows from its evidence to the evidence's square
+/// root: `w(t) = e^max(exp(-t / SHARE_GROWTH), 1/2)`.
 pub(super) const SHARE_GROWTH: f64 = 5.0;
 
 /// The map's evidence for this person (see the [module documentation](self)): the
@@ -164,10 +165,10 @@ pub(super) fn map_evidence(
 }
 
 /// The map's share `t` seconds ahead given its `evidence`:
-/// `evidence^(exp(-t / SHARE_GROWTH))`.
+/// `evidence^max(exp(-t / SHARE_GROWTH), 1/2)`.
 #[inline]
 pub(super) fn map_share(evidence: f64, t: f64) -> f64 {
-    evidence.powf((-t / SHARE_GROWTH).exp())
+    evidence.powf((-t / SHARE_GROWTH).exp().max(0.5))
 }
 
 /// The motion model's path at the call's steps into `path` (mean, and the world frame's

@@ -117,9 +117,10 @@ pub struct PredictionArgs {
     /// (the sample nearest the samples' mean path, among those reaching furthest).
     #[arg(long, default_value = "likelihood", value_parser = parse_rank)]
     pub rank: Rank,
-    /// Motion (beyond the paper): start from the learned motion model instead of
-    /// constant velocity; a sample that stops goes on with the model, and the map bends
-    /// the model's samples as far as it explains the person's observed steps.
+    /// Motion (beyond the paper; part of `improved`): start from the learned motion model
+    /// instead of constant velocity; the map bends the model's samples by its evidence
+    /// for the person (how much better it explains their observed steps than a uniform
+    /// velocity), a share growing with the horizon; a sample the map stops stands there.
     #[arg(long)]
     pub motion: bool,
 }
