@@ -161,13 +161,17 @@ impl Call<'_, '_> {
             let agent_scores = scores.as_deref_mut().map(|s| &mut s[a * k..(a + 1) * k]);
             let key = agent_key(seed, first_agent + a as u64);
             // the samples bent towards the motion model (`motion.rs`)
-            let bend = |tracks: &mut [Point], lens: &mut [u32], path: &mut Vec<_>| {
+            let bend = |tracks: &mut [Point],
+                        lens: &mut [u32],
+                        path: &mut Vec<_>,
+                        shares: &mut Vec<[f64; 2]>| {
                 let observed = &agents[a];
                 let history = history_of(histories, a, observed);
                 motion_path(&motion.forecast(&history), params.dt, steps, path);
                 let step = DVec2::from_angle(observed.heading) * (observed.speed * params.dt);
                 bend_to_motion(
                     path,
+                    shares,
                     map_evidence(map, &near, &history),
                     (observed.position, step),
                     params.dt,
@@ -181,7 +185,12 @@ impl Call<'_, '_> {
                 let agent_scores = agent_scores.unwrap_or(&mut []);
                 lanes.roll_agent::<MOTION, SCORES>(key, tracks, lens, agent_scores);
                 if extras.motion {
-                    bend(tracks, lens, &mut scratch.motion_path);
+                    bend(
+                        tracks,
+                        lens,
+                        &mut scratch.motion_path,
+                        &mut scratch.motion_shares,
+                    );
                 }
                 if extras.consensus && !agent_scores.is_empty() {
                     consensus(tracks, lens, agent_scores, &mut scratch.centre, extras.simd);
@@ -215,7 +224,12 @@ impl Call<'_, '_> {
                 lens[s] = scratch.lens[i];
             }
             if extras.motion {
-                bend(tracks, lens, &mut scratch.motion_path);
+                bend(
+                    tracks,
+                    lens,
+                    &mut scratch.motion_path,
+                    &mut scratch.motion_shares,
+                );
             }
             if let Some(out_scores) = agent_scores {
                 if extras.consensus {

@@ -29,6 +29,9 @@ pub(super) struct Candidates {
     /// frame's spread factor (`[a, b, c, d]`: `z` moves it by `(a z0 + b z1, c z0 +
     /// d z1)`) (`Options::motion`).
     pub(super) motion_path: Vec<([f64; 2], [f64; 4])>,
+    /// The map's share of a bent sample and the blend's weight at each step of a call
+    /// (`Options::motion`).
+    pub(super) motion_shares: Vec<[f64; 2]>,
 }
 
 thread_local! {

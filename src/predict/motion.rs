@@ -192,11 +192,14 @@ pub(super) fn motion_path(
 /// Bend one agent's samples (`tracks`, `lens`: `k` samples of `steps`) towards the
 /// motion model (see the [module documentation](self)), then make the first sample their
 /// mean path: every sample then reaches the horizon. `evidence` is the map's
-/// ([`map_evidence`]), `cv` the constant-velocity line the blend left (its start, its
-/// step), `blend` the blend's seconds (0: none), `key` the agent's key.
+/// ([`map_evidence`]), `shares` a buffer for the map's share and the blend's weight at
+/// each step, `cv` the
+/// constant-velocity line the blend left (its start, its step), `blend` the blend's
+/// seconds (0: none), `key` the agent's key.
 #[allow(clippy::too_many_arguments)]
 pub(super) fn bend_to_motion(
     path: &MotionPath,
+    shares: &mut Vec<[f64; 2]>,
     evidence: f64,
     cv: (DVec2, DVec2),
     dt: f64,
@@ -209,6 +212,16 @@ pub(super) fn bend_to_motion(
     if steps == 0 || lens.is_empty() {
         return;
     }
+    shares.clear();
+    shares.extend((0..steps).map(|j| {
+        // the blend's weight on the line at this step (0: no blend)
+        let w = if blend > 0.0 {
+            (-(j as f64) * dt / blend).exp()
+        } else {
+            0.0
+        };
+        [map_share(evidence, (j + 1) as f64 * dt), w]
+    }));
     for (s, (track, len)) in tracks
         .chunks_exact_mut(steps)
         .zip(lens.iter_mut())
@@ -219,17 +232,11 @@ pub(super) fn bend_to_motion(
         let mut last = DVec2::ZERO;
         for (j, out) in track.iter_mut().enumerate() {
             let m = path_point(path, j, z);
-            let t = (j + 1) as f64 * dt;
             let sample = if j < reached {
                 let p = DVec2::new(out[0] as f64, out[1] as f64);
-                if blend > 0.0 {
-                    // the blend's weight on the line at this step, moved onto the model
-                    let w = (-(j as f64) * dt / blend).exp();
-                    let line = cv.0 + cv.1 * (j + 1) as f64;
-                    p + (m - line) * w
-                } else {
-                    p
-                }
+                // the blend's weight on the line, moved onto the model
+                let line = cv.0 + cv.1 * (j + 1) as f64;
+                p + (m - line) * shares[j][1]
             } else if j == 0 {
                 // stopped before its first step: it stands on the model's first step
                 m
@@ -237,7 +244,7 @@ pub(super) fn bend_to_motion(
                 last
             };
             last = sample;
-            let p = m + (sample - m) * map_share(evidence, t);
+            let p = m + (sample - m) * shares[j][0];
             *out = [p.x as f32, p.y as f32];
         }
         *len = steps as u32;
