@@ -10,6 +10,7 @@
 //! * [`msg`]: the messages as serde structs.
 //! * [`tracks`]: the per-track bounded histories (timeouts, caps, frames, bad input).
 //! * [`predictor`]: cliffd or in-process.
+//! * [`objects`]: the predictions as Autoware's `PredictedObjects`; [`uuid`]: their ids.
 //! * [`observer`]: the tracks sent to a daemon that learns its map.
 //! * [`engine`]: one cycle, without ROS; [`node`]: the DDS wiring.
 //! * [`settings`]: parameters (YAML file, overrides), names, remapping.
@@ -19,8 +20,10 @@ pub mod engine;
 pub mod markers;
 pub mod msg;
 pub mod node;
+pub mod objects;
 pub mod observer;
 pub mod predictor;
 pub mod settings;
 pub mod tracks;
+pub mod uuid;
 pub mod warn;

@@ -90,6 +90,10 @@ const PARAM_HELP: &[(&str, &str)] = &[
         "map_arrow_seconds",
         "map arrows are this many seconds of their mean speed long",
     ),
+    (
+        "object_paths",
+        "paths per person on the objects topic, the best by score (at most k)",
+    ),
     ("warn_period", "seconds between two warnings of one kind"),
     (
         "use_sim_time",
@@ -135,6 +139,11 @@ fn after_help() -> String {
             "map_markers",
             "visualization_msgs/msg/MarkerArray",
             "output, latched: the map as arrows",
+        ),
+        (
+            "objects",
+            "autoware_perception_msgs/msg/PredictedObjects",
+            "output: the people as Autoware's predicted pedestrians",
         ),
     ];
     for ((_, topic), (_, ty, use_)) in TOPICS.iter().zip(types) {

@@ -83,6 +83,9 @@ pub struct Parameters {
     pub marker_lifetime: f64,
     /// Map arrows are as long as this many seconds of their mean speed.
     pub map_arrow_seconds: f64,
+    /// Paths per person on the objects topic (`PredictedObjects`): the best by score,
+    /// at most `k`.
+    pub object_paths: usize,
     /// Seconds between two warnings of one kind.
     pub warn_period: f64,
     /// Accepted for launch files; stamps are used whatever it says.
@@ -120,6 +123,7 @@ impl Default for Parameters {
             marker_width: 0.03,
             marker_lifetime: 1.0,
             map_arrow_seconds: 1.0,
+            object_paths: crate::engine::DEFAULT_OBJECT_PATHS,
             warn_period: 5.0,
             use_sim_time: false,
         }
@@ -127,12 +131,13 @@ impl Default for Parameters {
 }
 
 /// Default topic names (relative: resolved in the node's namespace), by key.
-pub const TOPICS: [(&str, &str); 5] = [
+pub const TOPICS: [(&str, &str); 6] = [
     ("people", "people"),
     ("tracked_objects", "tracked_objects"),
     ("predictions", "cliff/predictions"),
     ("markers", "cliff/markers"),
     ("map_markers", "cliff/map_markers"),
+    ("objects", "cliff/objects"),
 ];
 
 /// Everything the node runs with.
