@@ -139,11 +139,13 @@ VERIFY=(--all-deleted --observed @TMP@/cliffd.log --learned @TMP@/learned)
 scenario observe "--map thor1=$map --learn thor1 --learn-dir @TMP@/learned --learn-every-s 3600 --learn-every-rows 1000000" \
   thor1 -p daemon_map:=thor1 -p observe:=true -p map_markers_file:="$map" "${common[@]}"
 
-# autoware TrackedObjects from a best-effort publisher, in the frame odom with a static transform
+# autoware TrackedObjects from a best-effort publisher, in the frame odom with a static
+# transform; scored samples (the objects' paths are the best by score)
 FRAMES_OF=60
 PUB="--type objects --best-effort --frame-id odom"
-VERIFY=(--all-deleted --transform "0.5 -0.3 0.1" --warn "wrong frame:0:0")
-scenario tracked-objects - "$map" --map "$map" "${common[@]}" -p static_transforms:="['odom 0.5 -0.3 0.1']"
+VERIFY=(--all-deleted --transform "0.5 -0.3 0.1" --warn "wrong frame:0:0" --scores --object-paths 4)
+scenario tracked-objects - "$map" --map "$map" "${common[@]}" -p static_transforms:="['odom 0.5 -0.3 0.1']" \
+  -p scores:=true -p object_paths:=4
 
 # People in a frame without a transform: skipped, with a rate-limited warning
 FRAMES_OF=25

@@ -13,7 +13,8 @@ transform does. Optional checks: every marker ever added was deleted by the end
 (--all-deleted), the daemon's absence (--gone/--back), warnings in the node's log
 (--log, --warn), that a learning cliffd took every row the node received once and every
 track's end (--observed, its log, and --learned, its snapshot folder), and with
---expect-skipped that nothing was predicted at all. Prints one
+--expect-skipped that nothing was predicted at all. The PredictedObjects on cliff/objects
+are checked against the predictions of the same cycle (check_objects). Prints one
 line per check and `N passed, N failed`; exits 1 on any failure.
 """
 import argparse
@@ -24,6 +25,10 @@ import re
 import struct
 import subprocess
 import sys
+import uuid
+
+# the namespace of the People tracks' UUIDs (docs/planners.md)
+PEOPLE_NAMESPACE = uuid.uuid5(uuid.NAMESPACE_URL, "urn:cliff-ros2:people")
 
 
 def f32(v):
@@ -137,6 +142,96 @@ def check_observed(r, rows, tracks, daemon_log, learned_dir):
             f"cliffd learned the tracks ({learned} rows) and wrote a snapshot ({len(files)} files)")
 
 
+def expected_uuid(track_id):
+    """A TrackedObjects track keeps its UUID (its id is the 32 hex digits); a People track
+    gets the name-based UUID of its name."""
+    if re.fullmatch("[0-9a-f]{32}", track_id):
+        return track_id
+    return uuid.uuid5(PEOPLE_NAMESPACE, track_id).hex
+
+
+def yaw_close(a, b, tol=1e-6):
+    d = (a - b + math.pi) % (2 * math.pi) - math.pi
+    return abs(d) < tol
+
+
+def check_objects(r, preds, objects, expected, dt, paths, min_received):
+    """Each predictions message with people has a PredictedObjects message of the same
+    stamp and frame: per person, in order, its UUID, a pedestrian of probability 1, a
+    cylinder, the initial pose at the last observation heading along the observed
+    velocity (the last two observations) and that speed forward, and the best `paths`
+    samples (by the predictions' scores, else the first) as paths: the origin then the
+    sample's points, each pose heading to the next, the step dt, confidence the sample's
+    share exp(s - best) / sum over its k samples (1/k unscored)."""
+    by_stamp = {}
+    for m in objects:
+        by_stamp.setdefault(tuple(m["stamp"]), []).append(m)
+    with_people = [p for p in preds if p["people"]]
+    step = [int(dt), round((dt - int(dt)) * 1e9)]
+    bad, compared, n_paths = [], 0, 0
+    for p in with_people:
+        key = tuple(p["stamp"])
+        ms = by_stamp.get(key)
+        if not ms:
+            continue
+        m = ms[0]
+        compared += 1
+        if m["frame"] != p["frame"] or len(m["objects"]) != len(p["people"]):
+            bad.append((key, "frame or count"))
+            continue
+        hist = expected[key][1]
+        for q, o, h in zip(p["people"], m["objects"], hist):
+            who = (key, q["track_id"])
+            if o["uuid"] != expected_uuid(q["track_id"]):
+                bad.append((who, "uuid", o["uuid"]))
+            if o["classification"] != [[7, 1.0]] or o["existence"] != 1.0 or o["shape"][0] != 1 \
+                    or not 0.3 <= o["shape"][1] == o["shape"][2] <= 1.0 or not 1.0 <= o["shape"][3] <= 2.2:
+                bad.append((who, "class, existence or shape", o["classification"], o["shape"]))
+            (t0s, t0n, x0, y0), (t1s, t1n, x1, y1) = h[-2], h[-1]
+            d = secs([t1s, t1n]) - secs([t0s, t0n])
+            vx, vy = (x1 - x0) / d, (y1 - y0) / d
+            speed = math.hypot(vx, vy)
+            if abs(o["pose"][0] - x1) > 1e-9 or abs(o["pose"][1] - y1) > 1e-9 or abs(o["twist"][0] - speed) > 1e-6 * max(1.0, speed) \
+                    or o["twist"][1] != 0.0 or (speed > 1e-6 and not yaw_close(o["pose"][2], math.atan2(vy, vx))):
+                bad.append((who, "initial pose or twist", o["pose"], o["twist"], [x1, y1, speed]))
+            k = len(q["lengths"])
+            if q["scores"]:
+                sc = q["scores"]
+                best = max(v for v in sc if math.isfinite(v))
+                w = [math.exp(v - best) if math.isfinite(v) else 0.0 for v in sc]
+                conf = [v / sum(w) for v in w]
+                order = sorted(range(k), key=lambda s: (-f32(conf[s]), s))
+            else:
+                conf = [1.0 / k] * k
+                order = list(range(k))
+            order = order[:paths]
+            if len(o["paths"]) != len(order):
+                bad.append((who, "paths", len(o["paths"])))
+                continue
+            starts = [sum(q["lengths"][:s]) for s in range(k)]
+            total = 0.0
+            for path, s in zip(o["paths"], order):
+                n_paths += 1
+                total += path["confidence"]
+                want = [q["origin"]] + q["points"][starts[s]:starts[s] + q["lengths"][s]]
+                got_xy = [[f32(x), f32(y)] for x, y, _ in path["poses"]]
+                if got_xy != want or path["step"] != step or abs(path["confidence"] - conf[s]) > 1e-5:
+                    bad.append((who, "path", s, path["confidence"], conf[s]))
+                    continue
+                poses = path["poses"]
+                for i in range(len(poses) - 1):
+                    dx, dy = poses[i + 1][0] - poses[i][0], poses[i + 1][1] - poses[i][1]
+                    if math.hypot(dx, dy) > 1e-6 and not yaw_close(poses[i][2], math.atan2(dy, dx), 1e-5):
+                        bad.append((who, "heading", s, i))
+                        break
+            if total > 1.0 + 1e-5:
+                bad.append((who, "confidences sum", total))
+    r.check(compared >= min_received * len(with_people) and compared > 0 and not bad,
+            f"PredictedObjects: {compared} messages for {len(with_people)} predictions with people; UUIDs, "
+            f"pedestrian class and shape, initial state, {n_paths} paths (the best {paths} by score, "
+            "headings, step, confidences) as predicted", str(bad[:3]))
+
+
 def expect_skipped(r, got):
     with_people = [p for p in got["predictions"] if p["people"]]
     adds = [m for m in got["markers"] if any(k["action"] == 0 for k in m)]
@@ -171,6 +266,8 @@ def main():
     ap.add_argument("--expect-skipped", action="store_true")
     ap.add_argument("--observed", default="", help="the log of a learning cliffd the node sent observations")
     ap.add_argument("--learned", default="", help="that cliffd's --learn-dir")
+    ap.add_argument("--scores", action="store_true", help="the node scores its samples")
+    ap.add_argument("--object-paths", type=int, default=3)
     a = ap.parse_args()
     r = Results(a.name)
 
@@ -219,7 +316,7 @@ def main():
     r.check(people > 0, f"{people} person predictions in {len(cycles)} messages to compare")
 
     ref_in = {"map": a.map, "method": a.method, "k": a.k, "horizon": a.horizon, "dt": a.dt,
-              "seed": a.seed, "scores": False, "cycles": [c for _, c in cycles]}
+              "seed": a.seed, "scores": a.scores, "cycles": [c for _, c in cycles]}
     res = subprocess.run([a.reference], input=json.dumps(ref_in), capture_output=True, text=True)
     if res.returncode != 0:
         r.check(False, "reference ran", res.stderr.strip())
@@ -237,6 +334,8 @@ def main():
         r.check(not mism and len(ref) == len(cycles),
                 f"positions equal the in-process reference for the same histories and seed ({people} people)",
                 f"{len(mism)} differ, first {mism[:3]}")
+
+    check_objects(r, preds, got.get("objects", []), expected, a.dt, a.object_paths, a.min_received)
 
     # markers: the arrays with line strips, in order, match the predictions with people
     adds = [m for m in got["markers"] if any(k["action"] == 0 for k in m)]
