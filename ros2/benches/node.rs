@@ -8,13 +8,16 @@
 //! * `prediction`: `Engine::predict` (the prediction itself, `LocalPredictor`);
 //! * `build_predictions`, `encode_predictions`: the predictions message
 //!   (`Engine::build_predictions`) and its CDR bytes (what its publisher serializes);
+//! * `build_objects`, `encode_objects`: the same people as Autoware's
+//!   `PredictedObjects` (`Engine::build_objects`, 3 paths each) and its CDR bytes;
 //! * `build_markers`, `encode_markers`: the 600 line strips (`Engine::build_markers`)
 //!   and the MarkerArray's CDR bytes.
 //!
 //! Criterion measures each stage's mean per iteration; then `percentiles` times 300 single
 //! runs of each stage and prints p50 and p99 (criterion reports no per-call tails), and
 //! the node's share on the way to the predictions (decode + histories + build and encode
-//! of the predictions) and the markers' (their build and encode).
+//! of the predictions), the objects' and the markers' (their build and encode), and the
+//! node's share with and without the objects.
 //!
 //!     cargo bench -p cliff-ros2 --bench node
 
@@ -24,7 +27,7 @@ use std::time::{Duration, Instant};
 use cliff::predict::Params;
 use cliff_ros2::engine::Engine;
 use cliff_ros2::markers::MarkerStyle;
-use cliff_ros2::msg::{MarkerArray, People, Predictions};
+use cliff_ros2::msg::{MarkerArray, People, PredictedObjects, Predictions};
 use cliff_ros2::predictor::{PredictSettings, Predictor, Source};
 use cliff_ros2::tracks::{Keeper, KeeperSettings};
 use criterion::{Criterion, criterion_group, criterion_main};
@@ -112,6 +115,17 @@ fn encode_predictions(s: &mut Setup) -> usize {
         .len()
 }
 
+fn build_objects(s: &mut Setup) {
+    s.engine.build_objects();
+}
+
+fn encode_objects(s: &mut Setup) -> usize {
+    let o = s.engine.output().objects().expect("predicted");
+    CDRSerializerAdapter::<PredictedObjects>::to_bytes(o)
+        .expect("serializes")
+        .len()
+}
+
 fn build_markers(s: &mut Setup) {
     s.engine.clear_output();
     s.engine.build_markers();
@@ -136,6 +150,10 @@ fn stages(c: &mut Criterion) {
     g.bench_function("encode_predictions", |b| {
         b.iter(|| black_box(encode_predictions(&mut s)))
     });
+    g.bench_function("build_objects", |b| b.iter(|| build_objects(&mut s)));
+    g.bench_function("encode_objects", |b| {
+        b.iter(|| black_box(encode_objects(&mut s)))
+    });
     g.bench_function("build_markers", |b| b.iter(|| build_markers(&mut s)));
     g.bench_function("encode_markers", |b| {
         b.iter(|| black_box(encode_markers(&mut s)))
@@ -151,12 +169,14 @@ fn percentile(v: &mut [f64], q: f64) -> f64 {
 fn percentiles(_c: &mut Criterion) {
     let mut s = setup();
     const RUNS: usize = 300;
-    const STAGES: [&str; 7] = [
+    const STAGES: [&str; 9] = [
         "decode",
         "histories",
         "prediction",
         "build_predictions",
         "encode_predictions",
+        "build_objects",
+        "encode_objects",
         "build_markers",
         "encode_markers",
     ];
@@ -175,10 +195,14 @@ fn percentiles(_c: &mut Criterion) {
         t[4] = Instant::now();
         black_box(encode_predictions(&mut s));
         t[5] = Instant::now();
-        build_markers(&mut s);
+        build_objects(&mut s);
         t[6] = Instant::now();
-        black_box(encode_markers(&mut s));
+        black_box(encode_objects(&mut s));
         t[7] = Instant::now();
+        build_markers(&mut s);
+        t[8] = Instant::now();
+        black_box(encode_markers(&mut s));
+        t[9] = Instant::now();
         for (i, v) in times.iter_mut().enumerate() {
             v.push((t[i + 1] - t[i]).as_secs_f64() * 1e3);
         }
@@ -189,7 +213,9 @@ fn percentiles(_c: &mut Criterion) {
             .collect()
     };
     let mut to_predictions = sum(&[0, 1, 3, 4]);
-    let mut markers = sum(&[5, 6]);
+    let mut objects = sum(&[5, 6]);
+    let mut with_objects = sum(&[0, 1, 3, 4, 5, 6]);
+    let mut markers = sum(&[7, 8]);
     println!("ros2 node, 30 people, k 20, 12 s at 0.4 s: {RUNS} single runs per stage (ms)");
     for (name, v) in STAGES.iter().zip(times.iter_mut()) {
         let p50 = percentile(v, 0.5);
@@ -200,6 +226,11 @@ fn percentiles(_c: &mut Criterion) {
         (
             "node adds, to the predictions (decode, histories, build and encode predictions)",
             &mut to_predictions,
+        ),
+        ("objects (build and encode)", &mut objects),
+        (
+            "node adds, to the predictions and the objects",
+            &mut with_objects,
         ),
         ("markers (build and encode)", &mut markers),
     ] {
