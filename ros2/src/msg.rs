@@ -589,6 +589,36 @@ pub struct PredictedObjects {
 /// The DDS type of [`PredictedObjects`].
 pub const PREDICTED_OBJECTS: TypeName = ("autoware_perception_msgs", "PredictedObjects");
 
+/// `nav_msgs/msg/MapMetaData`.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+pub struct MapMetaData {
+    /// When the map was loaded (the grid's stamp here).
+    pub map_load_time: Time,
+    /// The side of a cell (m).
+    pub resolution: f32,
+    /// Cells along x.
+    pub width: u32,
+    /// Cells along y.
+    pub height: u32,
+    /// The corner of cell (0, 0) in the frame (rotation: none here).
+    pub origin: Pose,
+}
+
+/// `nav_msgs/msg/OccupancyGrid`: row-major cells, 0..100 (probability in percent), -1
+/// unknown.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct OccupancyGrid {
+    /// Stamp and frame.
+    pub header: Header,
+    /// Size, resolution and origin.
+    pub info: MapMetaData,
+    /// The cells, row after row (row 0 at the origin's y).
+    pub data: Vec<i8>,
+}
+
+/// The DDS type of [`OccupancyGrid`].
+pub const OCCUPANCY_GRID: TypeName = ("nav_msgs", "OccupancyGrid");
+
 /// A message shared with a publisher instead of copied: serializes as `T`. The engine
 /// keeps the `Arc` and reuses the message once the publisher has written it.
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -605,6 +635,7 @@ impl ros2_client::Message for TrackedObjects {}
 impl ros2_client::Message for MarkerArray {}
 impl ros2_client::Message for Predictions {}
 impl ros2_client::Message for PredictedObjects {}
+impl ros2_client::Message for OccupancyGrid {}
 
 #[cfg(test)]
 mod tests {

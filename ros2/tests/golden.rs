@@ -132,6 +132,13 @@ fn predicted_objects_bytes_equal_rosbags() {
 }
 
 #[test]
+fn occupancy_grid_bytes_equal_rosbags() {
+    let g: OccupancyGrid = check("nav_msgs/msg/OccupancyGrid");
+    assert_eq!((g.info.width, g.info.height), (3, 2));
+    assert_eq!(g.data, [0, 100, -1, 37, 5, 0]);
+}
+
+#[test]
 fn every_sample_is_checked() {
     let names: Vec<String> = samples().keys().cloned().collect();
     let tested = [
@@ -146,6 +153,7 @@ fn every_sample_is_checked() {
         "cliff_msgs/msg/Predictions",
         "visualization_msgs/msg/Marker",
         "visualization_msgs/msg/MarkerArray",
+        "nav_msgs/msg/OccupancyGrid",
     ];
     let mut a = names.clone();
     a.sort();
