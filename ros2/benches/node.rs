@@ -10,14 +10,16 @@
 //!   (`Engine::build_predictions`) and its CDR bytes (what its publisher serializes);
 //! * `build_objects`, `encode_objects`: the same people as Autoware's
 //!   `PredictedObjects` (`Engine::build_objects`, 3 paths each) and its CDR bytes;
+//! * `build_grid`, `encode_grid`: the occupancy grid (`Engine::build_grid`, the
+//!   default 20 x 20 m at 0.2 m, window 0..2 s) and its CDR bytes;
 //! * `build_markers`, `encode_markers`: the 600 line strips (`Engine::build_markers`)
 //!   and the MarkerArray's CDR bytes.
 //!
 //! Criterion measures each stage's mean per iteration; then `percentiles` times 300 single
 //! runs of each stage and prints p50 and p99 (criterion reports no per-call tails), and
 //! the node's share on the way to the predictions (decode + histories + build and encode
-//! of the predictions), the objects' and the markers' (their build and encode), and the
-//! node's share with and without the objects.
+//! of the predictions), the objects', the grid's and the markers' (their build and
+//! encode), and the node's share with and without the objects and the grid.
 //!
 //!     cargo bench -p cliff-ros2 --bench node
 
@@ -26,8 +28,9 @@ use std::time::{Duration, Instant};
 
 use cliff::predict::Params;
 use cliff_ros2::engine::Engine;
+use cliff_ros2::grid::{GridBuilder, GridSettings};
 use cliff_ros2::markers::MarkerStyle;
-use cliff_ros2::msg::{MarkerArray, People, PredictedObjects, Predictions};
+use cliff_ros2::msg::{MarkerArray, OccupancyGrid, People, PredictedObjects, Predictions};
 use cliff_ros2::predictor::{PredictSettings, Predictor, Source};
 use cliff_ros2::tracks::{Keeper, KeeperSettings};
 use criterion::{Criterion, criterion_group, criterion_main};
@@ -65,6 +68,7 @@ fn setup() -> Setup {
         MarkerStyle::default(),
         Duration::from_secs(5),
     );
+    engine.set_grid(Some(GridBuilder::new(GridSettings::default())));
     let now = Instant::now();
     let mut msg = thor.message(0);
     for n in 0..40 {
@@ -126,6 +130,17 @@ fn encode_objects(s: &mut Setup) -> usize {
         .len()
 }
 
+fn build_grid(s: &mut Setup) {
+    s.engine.build_grid(s.now);
+}
+
+fn encode_grid(s: &mut Setup) -> usize {
+    let g = s.engine.output().grid().expect("a grid");
+    CDRSerializerAdapter::<OccupancyGrid>::to_bytes(g)
+        .expect("serializes")
+        .len()
+}
+
 fn build_markers(s: &mut Setup) {
     s.engine.clear_output();
     s.engine.build_markers();
@@ -154,6 +169,8 @@ fn stages(c: &mut Criterion) {
     g.bench_function("encode_objects", |b| {
         b.iter(|| black_box(encode_objects(&mut s)))
     });
+    g.bench_function("build_grid", |b| b.iter(|| build_grid(&mut s)));
+    g.bench_function("encode_grid", |b| b.iter(|| black_box(encode_grid(&mut s))));
     g.bench_function("build_markers", |b| b.iter(|| build_markers(&mut s)));
     g.bench_function("encode_markers", |b| {
         b.iter(|| black_box(encode_markers(&mut s)))
@@ -169,7 +186,7 @@ fn percentile(v: &mut [f64], q: f64) -> f64 {
 fn percentiles(_c: &mut Criterion) {
     let mut s = setup();
     const RUNS: usize = 300;
-    const STAGES: [&str; 9] = [
+    const STAGES: [&str; 11] = [
         "decode",
         "histories",
         "prediction",
@@ -177,6 +194,8 @@ fn percentiles(_c: &mut Criterion) {
         "encode_predictions",
         "build_objects",
         "encode_objects",
+        "build_grid",
+        "encode_grid",
         "build_markers",
         "encode_markers",
     ];
@@ -199,10 +218,14 @@ fn percentiles(_c: &mut Criterion) {
         t[6] = Instant::now();
         black_box(encode_objects(&mut s));
         t[7] = Instant::now();
-        build_markers(&mut s);
+        build_grid(&mut s);
         t[8] = Instant::now();
-        black_box(encode_markers(&mut s));
+        black_box(encode_grid(&mut s));
         t[9] = Instant::now();
+        build_markers(&mut s);
+        t[10] = Instant::now();
+        black_box(encode_markers(&mut s));
+        t[11] = Instant::now();
         for (i, v) in times.iter_mut().enumerate() {
             v.push((t[i + 1] - t[i]).as_secs_f64() * 1e3);
         }
@@ -214,8 +237,9 @@ fn percentiles(_c: &mut Criterion) {
     };
     let mut to_predictions = sum(&[0, 1, 3, 4]);
     let mut objects = sum(&[5, 6]);
-    let mut with_objects = sum(&[0, 1, 3, 4, 5, 6]);
-    let mut markers = sum(&[7, 8]);
+    let mut grid = sum(&[7, 8]);
+    let mut with_both = sum(&[0, 1, 3, 4, 5, 6, 7, 8]);
+    let mut markers = sum(&[9, 10]);
     println!("ros2 node, 30 people, k 20, 12 s at 0.4 s: {RUNS} single runs per stage (ms)");
     for (name, v) in STAGES.iter().zip(times.iter_mut()) {
         let p50 = percentile(v, 0.5);
@@ -228,9 +252,10 @@ fn percentiles(_c: &mut Criterion) {
             &mut to_predictions,
         ),
         ("objects (build and encode)", &mut objects),
+        ("grid (build and encode)", &mut grid),
         (
-            "node adds, to the predictions and the objects",
-            &mut with_objects,
+            "node adds, to the predictions, the objects and the grid",
+            &mut with_both,
         ),
         ("markers (build and encode)", &mut markers),
     ] {

@@ -6,8 +6,9 @@ use std::time::{Duration, Instant};
 use crate::markers::{self, MarkerStyle};
 use std::sync::Arc;
 
+use crate::grid::GridBuilder;
 use crate::msg::{
-    Header, Marker, MarkerArray, People, PersonPrediction, Point2, PredictedObject,
+    Header, Marker, MarkerArray, OccupancyGrid, People, PersonPrediction, Point2, PredictedObject,
     PredictedObjects, Predictions, Shared, Time, TrackedObjects,
 };
 use crate::objects;
@@ -38,6 +39,8 @@ pub struct Output {
     predicted: bool,
     markers: Arc<MarkerArray>,
     objects: Arc<PredictedObjects>,
+    grid: Arc<OccupancyGrid>,
+    gridded: bool,
 }
 
 impl Output {
@@ -65,6 +68,16 @@ impl Output {
     /// The predictions as Autoware's `PredictedObjects`, when this cycle predicted.
     pub fn objects(&self) -> Option<&PredictedObjects> {
         self.predicted.then_some(&*self.objects)
+    }
+
+    /// The occupancy grid, when this cycle predicted and the engine has a grid.
+    pub fn grid(&self) -> Option<&OccupancyGrid> {
+        self.gridded.then_some(&*self.grid)
+    }
+
+    /// The grid to publish (a handle, not a copy), when there is one this cycle.
+    pub fn shared_grid(&self) -> Option<Shared<OccupancyGrid>> {
+        self.gridded.then(|| Shared(Arc::clone(&self.grid)))
     }
 
     /// The objects to publish (a handle, not a copy), when this cycle predicted.
@@ -95,6 +108,8 @@ pub struct Engine {
     object_paths: usize,
     order: Vec<usize>,
     confidences: Vec<f32>,
+    grid: Option<GridBuilder>,
+    warn_grid: RateLimit,
     stats: Stats,
 }
 
@@ -137,6 +152,8 @@ impl Engine {
             object_paths: DEFAULT_OBJECT_PATHS,
             order: Vec::new(),
             confidences: Vec::new(),
+            grid: None,
+            warn_grid: RateLimit::new(warn_period),
             stats: Stats::default(),
         }
     }
@@ -157,6 +174,16 @@ impl Engine {
     /// `cliff/objects` (parameter `object_paths`; at most `k` are kept).
     pub fn set_object_paths(&mut self, n: usize) {
         self.object_paths = n;
+    }
+
+    /// Publish the predictions as an occupancy grid too ([`crate::grid`]).
+    pub fn set_grid(&mut self, grid: Option<GridBuilder>) {
+        self.grid = grid;
+    }
+
+    /// The grid builder, when the engine makes a grid.
+    pub fn grid(&self) -> Option<&GridBuilder> {
+        self.grid.as_ref()
     }
 
     /// The tracks.
@@ -268,6 +295,7 @@ impl Engine {
         let objects = Arc::make_mut(&mut self.out.objects);
         self.spare_objects.append(&mut objects.objects);
         self.out.predicted = false;
+        self.out.gridded = false;
     }
 
     /// Forget stale tracks and delete their markers (no prediction): what an idle
@@ -386,6 +414,41 @@ impl Engine {
         self.build_predictions();
         self.build_markers();
         self.build_objects();
+        self.build_grid(Instant::now());
+    }
+
+    /// The occupancy grid of the last [`Engine::predict`], when the engine has a grid
+    /// ([`Engine::set_grid`]); a failure (not expected from checked settings) skips
+    /// this cycle's grid with a rate-limited warning.
+    pub fn build_grid(&mut self, now: Instant) {
+        let Engine {
+            keeper,
+            predictor,
+            header,
+            out,
+            selected,
+            grid,
+            warn_grid,
+            ..
+        } = self;
+        let Some(grid) = grid else {
+            return;
+        };
+        let tracks = keeper.tracks();
+        let starts = selected.iter().map(|&i| {
+            let last = tracks[i].last().expect("selected tracks have observations");
+            [last.x as f32, last.y as f32]
+        });
+        let dt = predictor.settings().params.dt;
+        let msg = Arc::make_mut(&mut out.grid);
+        match grid.fill(msg, header, predictor.samples(), starts, dt) {
+            Ok(()) => out.gridded = true,
+            Err(e) => {
+                if let Some(held) = warn_grid.check(now) {
+                    tracing::warn!("no occupancy grid this cycle: {e} ({held} warnings held back)");
+                }
+            }
+        }
     }
 
     /// The `PredictedObjects` message of the last [`Engine::predict`]

@@ -14,7 +14,7 @@ use ros2_client::{
 use crate::engine::Engine;
 use crate::markers::{self, MarkerStyle};
 use crate::msg::{
-    self, MarkerArray, People, PredictedObjects, Predictions, Shared, TrackedObjects,
+    self, MarkerArray, OccupancyGrid, People, PredictedObjects, Predictions, Shared, TrackedObjects,
 };
 use crate::observer::Observer;
 use crate::predictor::Predictor;
@@ -62,6 +62,9 @@ pub fn run(settings: Settings, domain_id: u16) -> Result<()> {
         Duration::from_secs_f64(p.warn_period),
     );
     engine.set_object_paths(p.object_paths);
+    if p.grid {
+        engine.set_grid(Some(crate::grid::GridBuilder::new(p.grid_settings()?)));
+    }
     if p.observe {
         engine = engine.with_observer(Observer::new(&p.daemon_map, p.max_tracks)?);
     }
@@ -153,6 +156,16 @@ pub fn run(settings: Settings, domain_id: u16) -> Result<()> {
     let objects_pub = node
         .create_publisher::<Shared<PredictedObjects>>(&objects_out_topic, None)
         .map_err(|e| anyhow::anyhow!("publisher {}: {e:?}", t["objects"]))?;
+    let grid_topic = node
+        .create_topic(
+            &topic_name(&t["occupancy"])?,
+            type_name(msg::OCCUPANCY_GRID),
+            &latched,
+        )
+        .map_err(|e| anyhow::anyhow!("topic {}: {e:?}", t["occupancy"]))?;
+    let grid_pub = node
+        .create_publisher::<Shared<OccupancyGrid>>(&grid_topic, None)
+        .map_err(|e| anyhow::anyhow!("publisher {}: {e:?}", t["occupancy"]))?;
     let map_topic = node
         .create_topic(
             &topic_name(&t["map_markers"])?,
@@ -222,6 +235,11 @@ pub fn run(settings: Settings, domain_id: u16) -> Result<()> {
             && let Err(e) = pred_pub.publish(pr)
         {
             tracing::warn!("publishing predictions: {e:?}");
+        }
+        if let Some(g) = out.shared_grid()
+            && let Err(e) = grid_pub.publish(g)
+        {
+            tracing::warn!("publishing the occupancy grid: {e:?}");
         }
         if let Some(o) = out.shared_objects()
             && let Err(e) = objects_pub.publish(o)

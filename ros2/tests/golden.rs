@@ -8,8 +8,8 @@
 use std::path::PathBuf;
 
 use cliff_ros2::msg::{
-    Header, Marker, MarkerArray, People, PersonPrediction, Point2, PredictedObjects, PredictedPath,
-    Predictions, Shape, Time, TrackedObjects,
+    Header, Marker, MarkerArray, OccupancyGrid, People, PersonPrediction, Point2, PredictedObjects,
+    PredictedPath, Predictions, Shape, Time, TrackedObjects,
 };
 use ros2_client::dds::rustdds::no_key::{DeserializerAdapter, SerializerAdapter};
 use ros2_client::dds::rustdds::{
