@@ -1,4 +1,4 @@
-"""Receive cliff-ros2's predictions, markers, PredictedObjects and latched map markers (a stock rclpy node)
+"""Receive cliff-ros2's predictions, markers, PredictedObjects, occupancy grids and latched map markers (a stock rclpy node)
 and write them to --out as JSON once --done appears (plus a settling second) or after
 --timeout seconds. Each predictions message is kept with the unix time it arrived."""
 import argparse
@@ -13,6 +13,7 @@ from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy, DurabilityPolicy, HistoryPolicy
 
 from autoware_perception_msgs.msg import PredictedObjects
+from nav_msgs.msg import OccupancyGrid
 from cliff_msgs.msg import Predictions
 from visualization_msgs.msg import MarkerArray
 
@@ -33,7 +34,7 @@ def main():
 
     rclpy.init()
     node = Node("cliff_listener")
-    got = {"predictions": [], "markers": [], "map_markers": [], "objects": []}
+    got = {"predictions": [], "markers": [], "map_markers": [], "objects": [], "grids": []}
 
     def on_pred(m):
         got["predictions"].append({
@@ -73,6 +74,14 @@ def main():
             } for o in m.objects],
         })
 
+    def on_grid(m):
+        i = m.info
+        got["grids"].append({
+            "stamp": stamp(m.header.stamp), "frame": m.header.frame_id, "resolution": i.resolution,
+            "width": i.width, "height": i.height, "origin": [i.origin.position.x, i.origin.position.y],
+            "data": list(m.data),
+        })
+
     def on_markers(m):
         got["markers"].append(markers(m))
 
@@ -88,6 +97,7 @@ def main():
         node.create_subscription(MarkerArray, f"{ns}/cliff/markers", on_markers, rel),
         node.create_subscription(MarkerArray, f"{ns}/cliff/map_markers", on_map, latched),
         node.create_subscription(PredictedObjects, f"{ns}/cliff/objects", on_objects, rel),
+        node.create_subscription(OccupancyGrid, f"{ns}/cliff/occupancy", on_grid, rel),
     ]
     start = time.monotonic()
     ready = False
@@ -104,7 +114,8 @@ def main():
     with open(a.out, "w") as f:
         json.dump(got, f)
     print(f"listen: {len(got['predictions'])} predictions, {len(got['markers'])} marker arrays, "
-          f"{len(got['map_markers'])} map marker arrays, {len(got['objects'])} objects", file=sys.stderr)
+          f"{len(got['map_markers'])} map marker arrays, {len(got['objects'])} objects, "
+          f"{len(got['grids'])} grids", file=sys.stderr)
     node.destroy_node()
     rclpy.shutdown()
 

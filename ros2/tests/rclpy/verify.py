@@ -14,7 +14,8 @@ transform does. Optional checks: every marker ever added was deleted by the end
 (--log, --warn), that a learning cliffd took every row the node received once and every
 track's end (--observed, its log, and --learned, its snapshot folder), and with
 --expect-skipped that nothing was predicted at all. The PredictedObjects on cliff/objects
-are checked against the predictions of the same cycle (check_objects). Prints one
+and the occupancy grids on cliff/occupancy are checked against the predictions of the
+same cycle (check_objects, check_grid). Prints one
 line per check and `N passed, N failed`; exits 1 on any failure.
 """
 import argparse
@@ -26,6 +27,8 @@ import struct
 import subprocess
 import sys
 import uuid
+
+import numpy as np
 
 # the namespace of the People tracks' UUIDs (docs/planners.md)
 PEOPLE_NAMESPACE = uuid.uuid5(uuid.NAMESPACE_URL, "urn:cliff-ros2:people")
@@ -232,6 +235,58 @@ def check_objects(r, preds, objects, expected, dt, paths, min_received):
             "headings, step, confidences) as predicted", str(bad[:3]))
 
 
+def check_grid(r, preds, grids, dt, grid_to, min_received, origin=(-10.0, -10.0), size=(20.0, 20.0),
+               resolution=0.2):
+    """Each predictions message has an occupancy grid of the same stamp and frame, of the
+    set origin, size and resolution, with the cell under each person's last observed
+    position occupied (the window starts there: >= 50 of 100), and every cell farther
+    than 4 m from all of the window's predicted positions (origins and samples' points
+    up to grid_to) free (0)."""
+    by_stamp = {tuple(g["stamp"]): g for g in grids}
+    width, height = round(size[0] / resolution), round(size[1] / resolution)
+    bad, compared, occupied, free = [], 0, 0, 0
+    steps = int(round(grid_to / dt))
+    for p in preds:
+        g = by_stamp.get(tuple(p["stamp"]))
+        if g is None:
+            continue
+        compared += 1
+        if (g["frame"], g["width"], g["height"]) != (p["frame"], width, height) \
+                or abs(g["resolution"] - resolution) > 1e-6 or g["origin"] != list(origin) \
+                or len(g["data"]) != width * height or not all(0 <= v <= 100 for v in g["data"]):
+            bad.append((p["stamp"], "layout", g["width"], g["height"], g["resolution"], g["origin"]))
+            continue
+
+        def cell(x, y):
+            c, r_ = int((x - origin[0]) // resolution), int((y - origin[1]) // resolution)
+            return r_ * width + c if 0 <= c < width and 0 <= r_ < height else None
+
+        near = np.zeros((height, width), dtype=bool)
+        reach = int(4.0 / resolution) + 1
+        for q in p["people"]:
+            pts = [q["origin"]]
+            start = 0
+            for n in q["lengths"]:
+                pts += q["points"][start:start + min(n, steps)]
+                start += n
+            i = cell(*q["origin"])
+            if i is not None:
+                if g["data"][i] < 50:
+                    bad.append((p["stamp"], q["track_id"], "free under the person", g["data"][i]))
+                occupied += 1
+            for x, y in pts:
+                c0, r0 = int((x - origin[0]) // resolution), int((y - origin[1]) // resolution)
+                near[max(0, r0 - reach):max(0, r0 + reach + 1), max(0, c0 - reach):max(0, c0 + reach + 1)] = True
+        data = np.array(g["data"]).reshape(height, width)
+        hot = int(((data != 0) & ~near).sum())
+        free += int((~near).sum())
+        if hot:
+            bad.append((p["stamp"], "occupied far from every prediction", hot))
+    r.check(compared >= min_received * len(preds) and compared > 0 and occupied > 0 and not bad,
+            f"occupancy grids: {compared} for {len(preds)} predictions; layout as set, the cells under "
+            f"{occupied} people occupied, {free} cells far from every prediction free", str(bad[:3]))
+
+
 def expect_skipped(r, got):
     with_people = [p for p in got["predictions"] if p["people"]]
     adds = [m for m in got["markers"] if any(k["action"] == 0 for k in m)]
@@ -336,6 +391,7 @@ def main():
                 f"{len(mism)} differ, first {mism[:3]}")
 
     check_objects(r, preds, got.get("objects", []), expected, a.dt, a.object_paths, a.min_received)
+    check_grid(r, preds, got.get("grids", []), a.dt, 2.0, a.min_received)
 
     # markers: the arrays with line strips, in order, match the predictions with people
     adds = [m for m in got["markers"] if any(k["action"] == 0 for k in m)]
