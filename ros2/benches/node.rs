@@ -11,7 +11,7 @@
 //! * `build_objects`, `encode_objects`: the same people as Autoware's
 //!   `PredictedObjects` (`Engine::build_objects`, 3 paths each) and its CDR bytes;
 //! * `build_grid`, `encode_grid`: the occupancy grid (`Engine::build_grid`, the
-//!   default 20 x 20 m at 0.2 m, window 0..2 s) and its CDR bytes;
+//!   default 20 x 20 m at 0.25 m, window 0..1.6 s) and its CDR bytes;
 //! * `build_markers`, `encode_markers`: the 600 line strips (`Engine::build_markers`)
 //!   and the MarkerArray's CDR bytes.
 //!

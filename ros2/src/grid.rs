@@ -49,9 +49,9 @@ impl Default for GridSettings {
         GridSettings {
             origin: [-10.0, -10.0],
             size: [20.0, 20.0],
-            resolution: 0.2,
+            resolution: 0.25,
             from: 0.0,
-            to: 2.0,
+            to: 1.6,
             decay: 0.0,
         }
     }

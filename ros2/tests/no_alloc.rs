@@ -99,7 +99,7 @@ fn steady_people_cycles_do_not_allocate() {
                 .all(|o| o.kinematics.predicted_paths.len() == 3)
         );
         let grid = out.grid().expect("a grid each cycle");
-        assert_eq!(grid.data.len(), 100 * 100);
+        assert_eq!(grid.data.len(), 80 * 80);
         assert!(grid.data.iter().any(|&v| v > 0));
     }
     let allocations = ALLOCATIONS.load(Ordering::Relaxed) - before;

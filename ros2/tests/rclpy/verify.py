@@ -236,7 +236,7 @@ def check_objects(r, preds, objects, expected, dt, paths, min_received):
 
 
 def check_grid(r, preds, grids, dt, grid_to, min_received, origin=(-10.0, -10.0), size=(20.0, 20.0),
-               resolution=0.2):
+               resolution=0.25):
     """Each predictions message has an occupancy grid of the same stamp and frame, of the
     set origin, size and resolution, with the cell under each person's last observed
     position occupied (the window starts there: >= 50 of 100), and every cell farther
@@ -391,7 +391,7 @@ def main():
                 f"{len(mism)} differ, first {mism[:3]}")
 
     check_objects(r, preds, got.get("objects", []), expected, a.dt, a.object_paths, a.min_received)
-    check_grid(r, preds, got.get("grids", []), a.dt, 2.0, a.min_received)
+    check_grid(r, preds, got.get("grids", []), a.dt, 1.6, a.min_received)
 
     # markers: the arrays with line strips, in order, match the predictions with people
     adds = [m for m in got["markers"] if any(k["action"] == 0 for k in m)]
