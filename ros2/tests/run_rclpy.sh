@@ -33,7 +33,7 @@ if [ -n "${CLIFF_ROS2_PREBUILT:-}" ]; then
   for bin in cliff-ros2 cliff-ros2-reference cliffd; do
     [ -x "$target/$bin" ] || { echo "FAIL build: $target/$bin is missing (CLIFF_ROS2_PREBUILT is set)"; failed=$((failed + 1)); finish; }
   done
-elif ! (cd "$repo" && cargo build --release -p cliff-ros2 --quiet && cargo build --release -p cliff-service --bin cliffd --quiet); then
+elif ! (cd "$repo" && cargo build --release -p cliff-ros2 -p cliff-service --quiet); then
   echo "FAIL build: cliff-ros2 and cliffd"; failed=$((failed + 1)); finish
 fi
 map="$data/thor1/cliffmap.csv"
