@@ -10,6 +10,7 @@
 //! | [`motion`] | a person's [`State`](motion::State), observed velocity, the speed prior, the learned [`MotionModel`](motion::MotionModel) |
 //! | [`map`] | CLiFF-maps: the type, lookups, sampling tables, files, building, scoring, online update, time-of-day sets |
 //! | [`predict`] | CLiFF-LHMP and constant velocity into reusable batches; options and presets |
+//! | [`occupancy`] | the probability that a grid cell holds someone at given times or in a window, the chance a robot's timed path meets each person |
 //! | [`eval`] | evaluation protocols, metrics, reports; fitting the speed prior |
 //! | [`plot`] | pictures of maps, predictions and error curves (PNG or SVG) |
 //!
@@ -32,6 +33,7 @@ mod framed;
 pub mod map;
 pub mod math;
 pub mod motion;
+pub mod occupancy;
 pub mod plot;
 pub mod predict;
 pub mod tracks;

@@ -12,7 +12,8 @@
 //! circle.
 //!
 //! The core library's layers, lowest first (see docs/architecture.md):
-//! `math` and `bounded_read`, `tracks`, `motion`, `map`, `predict`, `eval`, `plot`.
+//! `math` and `bounded_read`, `tracks`, `motion`, `map`, `predict`, `occupancy`, `eval`,
+//! `plot`.
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
@@ -25,6 +26,7 @@ const CORE_LAYERS: &[&[&str]] = &[
     &["motion"],
     &["map"],
     &["predict"],
+    &["occupancy"],
     &["eval"],
     &["plot"],
 ];

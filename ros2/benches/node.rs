@@ -8,13 +8,18 @@
 //! * `prediction`: `Engine::predict` (the prediction itself, `LocalPredictor`);
 //! * `build_predictions`, `encode_predictions`: the predictions message
 //!   (`Engine::build_predictions`) and its CDR bytes (what its publisher serializes);
+//! * `build_objects`, `encode_objects`: the same people as Autoware's
+//!   `PredictedObjects` (`Engine::build_objects`, 3 paths each) and its CDR bytes;
+//! * `build_grid`, `encode_grid`: the occupancy grid (`Engine::build_grid`, the
+//!   default 20 x 20 m at 0.25 m, window 0..1.6 s) and its CDR bytes;
 //! * `build_markers`, `encode_markers`: the 600 line strips (`Engine::build_markers`)
 //!   and the MarkerArray's CDR bytes.
 //!
 //! Criterion measures each stage's mean per iteration; then `percentiles` times 300 single
 //! runs of each stage and prints p50 and p99 (criterion reports no per-call tails), and
 //! the node's share on the way to the predictions (decode + histories + build and encode
-//! of the predictions) and the markers' (their build and encode).
+//! of the predictions), the objects', the grid's and the markers' (their build and
+//! encode), and the node's share with and without the objects and the grid.
 //!
 //!     cargo bench -p cliff-ros2 --bench node
 
@@ -23,8 +28,9 @@ use std::time::{Duration, Instant};
 
 use cliff::predict::Params;
 use cliff_ros2::engine::Engine;
+use cliff_ros2::grid::{GridBuilder, GridSettings};
 use cliff_ros2::markers::MarkerStyle;
-use cliff_ros2::msg::{MarkerArray, People, Predictions};
+use cliff_ros2::msg::{MarkerArray, OccupancyGrid, People, PredictedObjects, Predictions};
 use cliff_ros2::predictor::{PredictSettings, Predictor, Source};
 use cliff_ros2::tracks::{Keeper, KeeperSettings};
 use criterion::{Criterion, criterion_group, criterion_main};
@@ -62,6 +68,7 @@ fn setup() -> Setup {
         MarkerStyle::default(),
         Duration::from_secs(5),
     );
+    engine.set_grid(Some(GridBuilder::new(GridSettings::default())));
     let now = Instant::now();
     let mut msg = thor.message(0);
     for n in 0..40 {
@@ -112,6 +119,28 @@ fn encode_predictions(s: &mut Setup) -> usize {
         .len()
 }
 
+fn build_objects(s: &mut Setup) {
+    s.engine.build_objects();
+}
+
+fn encode_objects(s: &mut Setup) -> usize {
+    let o = s.engine.output().objects().expect("predicted");
+    CDRSerializerAdapter::<PredictedObjects>::to_bytes(o)
+        .expect("serializes")
+        .len()
+}
+
+fn build_grid(s: &mut Setup) {
+    s.engine.build_grid(s.now);
+}
+
+fn encode_grid(s: &mut Setup) -> usize {
+    let g = s.engine.output().grid().expect("a grid");
+    CDRSerializerAdapter::<OccupancyGrid>::to_bytes(g)
+        .expect("serializes")
+        .len()
+}
+
 fn build_markers(s: &mut Setup) {
     s.engine.clear_output();
     s.engine.build_markers();
@@ -136,6 +165,12 @@ fn stages(c: &mut Criterion) {
     g.bench_function("encode_predictions", |b| {
         b.iter(|| black_box(encode_predictions(&mut s)))
     });
+    g.bench_function("build_objects", |b| b.iter(|| build_objects(&mut s)));
+    g.bench_function("encode_objects", |b| {
+        b.iter(|| black_box(encode_objects(&mut s)))
+    });
+    g.bench_function("build_grid", |b| b.iter(|| build_grid(&mut s)));
+    g.bench_function("encode_grid", |b| b.iter(|| black_box(encode_grid(&mut s))));
     g.bench_function("build_markers", |b| b.iter(|| build_markers(&mut s)));
     g.bench_function("encode_markers", |b| {
         b.iter(|| black_box(encode_markers(&mut s)))
@@ -151,12 +186,16 @@ fn percentile(v: &mut [f64], q: f64) -> f64 {
 fn percentiles(_c: &mut Criterion) {
     let mut s = setup();
     const RUNS: usize = 300;
-    const STAGES: [&str; 7] = [
+    const STAGES: [&str; 11] = [
         "decode",
         "histories",
         "prediction",
         "build_predictions",
         "encode_predictions",
+        "build_objects",
+        "encode_objects",
+        "build_grid",
+        "encode_grid",
         "build_markers",
         "encode_markers",
     ];
@@ -175,10 +214,18 @@ fn percentiles(_c: &mut Criterion) {
         t[4] = Instant::now();
         black_box(encode_predictions(&mut s));
         t[5] = Instant::now();
-        build_markers(&mut s);
+        build_objects(&mut s);
         t[6] = Instant::now();
-        black_box(encode_markers(&mut s));
+        black_box(encode_objects(&mut s));
         t[7] = Instant::now();
+        build_grid(&mut s);
+        t[8] = Instant::now();
+        black_box(encode_grid(&mut s));
+        t[9] = Instant::now();
+        build_markers(&mut s);
+        t[10] = Instant::now();
+        black_box(encode_markers(&mut s));
+        t[11] = Instant::now();
         for (i, v) in times.iter_mut().enumerate() {
             v.push((t[i + 1] - t[i]).as_secs_f64() * 1e3);
         }
@@ -189,7 +236,10 @@ fn percentiles(_c: &mut Criterion) {
             .collect()
     };
     let mut to_predictions = sum(&[0, 1, 3, 4]);
-    let mut markers = sum(&[5, 6]);
+    let mut objects = sum(&[5, 6]);
+    let mut grid = sum(&[7, 8]);
+    let mut with_both = sum(&[0, 1, 3, 4, 5, 6, 7, 8]);
+    let mut markers = sum(&[9, 10]);
     println!("ros2 node, 30 people, k 20, 12 s at 0.4 s: {RUNS} single runs per stage (ms)");
     for (name, v) in STAGES.iter().zip(times.iter_mut()) {
         let p50 = percentile(v, 0.5);
@@ -200,6 +250,12 @@ fn percentiles(_c: &mut Criterion) {
         (
             "node adds, to the predictions (decode, histories, build and encode predictions)",
             &mut to_predictions,
+        ),
+        ("objects (build and encode)", &mut objects),
+        ("grid (build and encode)", &mut grid),
+        (
+            "node adds, to the predictions, the objects and the grid",
+            &mut with_both,
         ),
         ("markers (build and encode)", &mut markers),
     ] {

@@ -6,10 +6,12 @@ use std::time::{Duration, Instant};
 use crate::markers::{self, MarkerStyle};
 use std::sync::Arc;
 
+use crate::grid::GridBuilder;
 use crate::msg::{
-    Header, Marker, MarkerArray, People, PersonPrediction, Point2, Predictions, Shared, Time,
-    TrackedObjects,
+    Header, Marker, MarkerArray, OccupancyGrid, People, PersonPrediction, Point2, PredictedObject,
+    PredictedObjects, Predictions, Shared, Time, TrackedObjects,
 };
+use crate::objects;
 use crate::observer::Observer;
 use crate::predictor::{ObserveError, PredictError, Predictor, method_name};
 use crate::tracks::{Keeper, Skip};
@@ -36,6 +38,9 @@ pub struct Output {
     predictions: Arc<Predictions>,
     predicted: bool,
     markers: Arc<MarkerArray>,
+    objects: Arc<PredictedObjects>,
+    grid: Arc<OccupancyGrid>,
+    gridded: bool,
 }
 
 impl Output {
@@ -59,6 +64,26 @@ impl Output {
     pub fn shared_markers(&self) -> Shared<MarkerArray> {
         Shared(Arc::clone(&self.markers))
     }
+
+    /// The predictions as Autoware's `PredictedObjects`, when this cycle predicted.
+    pub fn objects(&self) -> Option<&PredictedObjects> {
+        self.predicted.then_some(&*self.objects)
+    }
+
+    /// The occupancy grid, when this cycle predicted and the engine has a grid.
+    pub fn grid(&self) -> Option<&OccupancyGrid> {
+        self.gridded.then_some(&*self.grid)
+    }
+
+    /// The grid to publish (a handle, not a copy), when there is one this cycle.
+    pub fn shared_grid(&self) -> Option<Shared<OccupancyGrid>> {
+        self.gridded.then(|| Shared(Arc::clone(&self.grid)))
+    }
+
+    /// The objects to publish (a handle, not a copy), when this cycle predicted.
+    pub fn shared_objects(&self) -> Option<Shared<PredictedObjects>> {
+        self.predicted.then(|| Shared(Arc::clone(&self.objects)))
+    }
 }
 
 /// People in, predictions out.
@@ -79,8 +104,17 @@ pub struct Engine {
     out: Output,
     spare_markers: Vec<Marker>,
     spare_people: Vec<PersonPrediction>,
+    spare_objects: Vec<PredictedObject>,
+    object_paths: usize,
+    order: Vec<usize>,
+    confidences: Vec<f32>,
+    grid: Option<GridBuilder>,
+    warn_grid: RateLimit,
     stats: Stats,
 }
+
+/// Paths per object on `cliff/objects` unless set ([`Engine::set_object_paths`]).
+pub const DEFAULT_OBJECT_PATHS: usize = 3;
 
 /// At least this many observations make a history (the velocity needs two).
 pub const MIN_HISTORY: usize = 2;
@@ -114,6 +148,12 @@ impl Engine {
             out: Output::default(),
             spare_markers: Vec::new(),
             spare_people: Vec::new(),
+            spare_objects: Vec::new(),
+            object_paths: DEFAULT_OBJECT_PATHS,
+            order: Vec::new(),
+            confidences: Vec::new(),
+            grid: None,
+            warn_grid: RateLimit::new(warn_period),
             stats: Stats::default(),
         }
     }
@@ -128,6 +168,22 @@ impl Engine {
     /// The observer, when the engine sends observations.
     pub fn observer(&self) -> Option<&Observer> {
         self.observer.as_ref()
+    }
+
+    /// Keep the best `n` samples of each person as the paths of its object on
+    /// `cliff/objects` (parameter `object_paths`; at most `k` are kept).
+    pub fn set_object_paths(&mut self, n: usize) {
+        self.object_paths = n;
+    }
+
+    /// Publish the predictions as an occupancy grid too ([`crate::grid`]).
+    pub fn set_grid(&mut self, grid: Option<GridBuilder>) {
+        self.grid = grid;
+    }
+
+    /// The grid builder, when the engine makes a grid.
+    pub fn grid(&self) -> Option<&GridBuilder> {
+        self.grid.as_ref()
     }
 
     /// The tracks.
@@ -236,7 +292,10 @@ impl Engine {
         self.spare_markers.append(&mut markers.markers);
         let predictions = Arc::make_mut(&mut self.out.predictions);
         self.spare_people.append(&mut predictions.people);
+        let objects = Arc::make_mut(&mut self.out.objects);
+        self.spare_objects.append(&mut objects.objects);
         self.out.predicted = false;
+        self.out.gridded = false;
     }
 
     /// Forget stale tracks and delete their markers (no prediction): what an idle
@@ -349,11 +408,101 @@ impl Engine {
         }
     }
 
-    /// The building step of a cycle: [`Engine::build_predictions`] then
-    /// [`Engine::build_markers`].
+    /// The building step of a cycle: [`Engine::build_predictions`],
+    /// [`Engine::build_markers`] and [`Engine::build_objects`].
     pub fn build(&mut self) {
         self.build_predictions();
         self.build_markers();
+        self.build_objects();
+        self.build_grid(Instant::now());
+    }
+
+    /// The occupancy grid of the last [`Engine::predict`], when the engine has a grid
+    /// ([`Engine::set_grid`]); a failure (not expected from checked settings) skips
+    /// this cycle's grid with a rate-limited warning.
+    pub fn build_grid(&mut self, now: Instant) {
+        let Engine {
+            keeper,
+            predictor,
+            header,
+            out,
+            selected,
+            grid,
+            warn_grid,
+            ..
+        } = self;
+        let Some(grid) = grid else {
+            return;
+        };
+        let tracks = keeper.tracks();
+        let starts = selected.iter().map(|&i| {
+            let last = tracks[i].last().expect("selected tracks have observations");
+            [last.x as f32, last.y as f32]
+        });
+        let dt = predictor.settings().params.dt;
+        let msg = Arc::make_mut(&mut out.grid);
+        match grid.fill(msg, header, predictor.samples(), starts, dt) {
+            Ok(()) => out.gridded = true,
+            Err(e) => {
+                if let Some(held) = warn_grid.check(now) {
+                    tracing::warn!("no occupancy grid this cycle: {e} ({held} warnings held back)");
+                }
+            }
+        }
+    }
+
+    /// The `PredictedObjects` message of the last [`Engine::predict`]
+    /// ([`crate::objects`]), into the reused output: same stamp and frame as the
+    /// predictions.
+    pub fn build_objects(&mut self) {
+        let Engine {
+            keeper,
+            predictor,
+            header,
+            out,
+            spare_objects,
+            selected,
+            object_paths,
+            order,
+            confidences,
+            ..
+        } = self;
+        let samples = predictor.samples();
+        let dt = predictor.settings().params.dt;
+        let tracks = keeper.tracks();
+        let msg = Arc::make_mut(&mut out.objects);
+        spare_objects.append(&mut msg.objects);
+        msg.header.stamp = header.stamp;
+        msg.header.frame_id.clone_from(&header.frame_id);
+        for (a, &i) in selected.iter().enumerate() {
+            let t = &tracks[i];
+            // selected tracks have at least two observations
+            let last = t.last().expect("selected tracks have observations");
+            let prev = (t.len() >= 2).then(|| t.get(t.len() - 2));
+            let velocity = match prev {
+                Some(p) if last.t > p.t => {
+                    let d = last.t - p.t;
+                    [(last.x - p.x) / d, (last.y - p.y) / d]
+                }
+                _ => [0.0, 0.0],
+            };
+            let mut o = spare_objects.pop().unwrap_or_default();
+            objects::fill_object(
+                &mut o,
+                objects::Person {
+                    id: &t.id,
+                    origin: [last.x, last.y],
+                    velocity,
+                },
+                samples,
+                a,
+                *object_paths,
+                dt,
+                order,
+                confidences,
+            );
+            msg.objects.push(o);
+        }
     }
 
     /// The predictions message from the last [`Engine::predict`], into the reused output
@@ -538,6 +687,34 @@ mod tests {
         assert_eq!(a.origin, Point2 { x: -9.5, y: 0.5 });
         assert_eq!(p.header.stamp, Time::from_secs_f64(0.4));
         assert_eq!(o.markers().markers.len(), 4);
+        // the same person on the objects topic: the best 3 of the 4 scored samples,
+        // each path the origin then that sample's points
+        let obj = o.objects().unwrap();
+        assert_eq!((obj.header.stamp, obj.objects.len()), (p.header.stamp, 1));
+        let a_obj = &obj.objects[0];
+        assert_eq!(a_obj.object_id.uuid, crate::uuid::track_uuid("a"));
+        let paths = &a_obj.kinematics.predicted_paths;
+        assert_eq!(paths.len(), 3);
+        let total: f32 = paths.iter().map(|q| q.confidence).sum();
+        assert!(total <= 1.0 + 1e-6 && paths[0].confidence >= paths[2].confidence);
+        let best = (0..4)
+            .max_by(|&i, &j| a.scores[i].total_cmp(&a.scores[j]).then(j.cmp(&i)))
+            .unwrap();
+        let start: usize = a.lengths[..best].iter().sum::<u32>() as usize;
+        let pts = &a.points[start..start + a.lengths[best] as usize];
+        assert_eq!(paths[0].path.len(), pts.len() + 1);
+        assert_eq!(paths[0].path[0].position.x, -9.5);
+        for (pose, q) in paths[0].path[1..].iter().zip(pts) {
+            assert_eq!((pose.position.x as f32, pose.position.y as f32), (q.x, q.y));
+        }
+        // the observed velocity: 0.5 m in 0.4 s
+        let v = a_obj
+            .kinematics
+            .initial_twist_with_covariance
+            .twist
+            .linear
+            .x;
+        assert!((v - 1.25).abs() < 1e-9, "{v}");
         // ended tracks get their markers deleted
         e.on_people(&people(3.0, &[("b", 0.1, 0.0)]), now);
         let o = e.cycle(now);

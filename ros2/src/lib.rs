@@ -10,17 +10,22 @@
 //! * [`msg`]: the messages as serde structs.
 //! * [`tracks`]: the per-track bounded histories (timeouts, caps, frames, bad input).
 //! * [`predictor`]: cliffd or in-process.
+//! * [`objects`]: the predictions as Autoware's `PredictedObjects`; [`uuid`]: their ids.
+//! * [`grid`]: the predictions as an `OccupancyGrid` for Nav2.
 //! * [`observer`]: the tracks sent to a daemon that learns its map.
 //! * [`engine`]: one cycle, without ROS; [`node`]: the DDS wiring.
 //! * [`settings`]: parameters (YAML file, overrides), names, remapping.
 #![warn(missing_docs)]
 
 pub mod engine;
+pub mod grid;
 pub mod markers;
 pub mod msg;
 pub mod node;
+pub mod objects;
 pub mod observer;
 pub mod predictor;
 pub mod settings;
 pub mod tracks;
+pub mod uuid;
 pub mod warn;

@@ -90,6 +90,26 @@ const PARAM_HELP: &[(&str, &str)] = &[
         "map_arrow_seconds",
         "map arrows are this many seconds of their mean speed long",
     ),
+    ("grid", "publish the occupancy grid (cliff/occupancy)"),
+    (
+        "grid_origin",
+        "[x, y] of the grid's corner (cell 0, 0) in the map frame (m)",
+    ),
+    ("grid_size", "[width, height] of the grid (m)"),
+    ("grid_resolution", "side of a grid cell (m)"),
+    (
+        "grid_from",
+        "the grid's window starts this many seconds after the last observation",
+    ),
+    ("grid_to", "... and ends this many (at most the horizon)"),
+    (
+        "grid_decay",
+        "seconds over which later passes count less in the grid (0: no decay)",
+    ),
+    (
+        "object_paths",
+        "paths per person on the objects topic, the best by score (at most k)",
+    ),
     ("warn_period", "seconds between two warnings of one kind"),
     (
         "use_sim_time",
@@ -135,6 +155,16 @@ fn after_help() -> String {
             "map_markers",
             "visualization_msgs/msg/MarkerArray",
             "output, latched: the map as arrows",
+        ),
+        (
+            "objects",
+            "autoware_perception_msgs/msg/PredictedObjects",
+            "output: the people as Autoware's predicted pedestrians",
+        ),
+        (
+            "occupancy",
+            "nav_msgs/msg/OccupancyGrid",
+            "output, latched: chance (%) of someone in each cell in the window",
         ),
     ];
     for ((_, topic), (_, ty, use_)) in TOPICS.iter().zip(types) {

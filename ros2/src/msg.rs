@@ -492,6 +492,11 @@ pub struct Shape {
     pub dimensions: Vector3,
 }
 
+impl Shape {
+    /// An upright cylinder: `dimensions` x and y the diameter, z the height.
+    pub const CYLINDER: u8 = 1;
+}
+
 /// `autoware_perception_msgs/msg/TrackedObject`.
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 pub struct TrackedObject {
@@ -533,6 +538,87 @@ pub struct TrackedObjects {
 /// The DDS type of [`TrackedObjects`].
 pub const TRACKED_OBJECTS: TypeName = ("autoware_perception_msgs", "TrackedObjects");
 
+/// `autoware_perception_msgs/msg/PredictedPath`: one predicted path of an object.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct PredictedPath {
+    /// Poses `time_step` apart, the first at the header's stamp.
+    pub path: Vec<Pose>,
+    /// Time between two poses.
+    pub time_step: Duration,
+    /// Confidence of the path, 0..1.
+    pub confidence: f32,
+}
+
+/// `autoware_perception_msgs/msg/PredictedObjectKinematics`.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct PredictedObjectKinematics {
+    /// Pose now.
+    pub initial_pose_with_covariance: PoseWithCovariance,
+    /// Velocity now (in the object's frame: `linear.x` forward).
+    pub initial_twist_with_covariance: TwistWithCovariance,
+    /// Acceleration now.
+    pub initial_acceleration_with_covariance: AccelWithCovariance,
+    /// The predicted paths.
+    pub predicted_paths: Vec<PredictedPath>,
+}
+
+/// `autoware_perception_msgs/msg/PredictedObject`.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct PredictedObject {
+    /// The object's id.
+    pub object_id: Uuid,
+    /// Existence probability, 0..1.
+    pub existence_probability: f32,
+    /// Class probabilities.
+    pub classification: Vec<ObjectClassification>,
+    /// Pose, twist, acceleration and the predicted paths.
+    pub kinematics: PredictedObjectKinematics,
+    /// Shape.
+    pub shape: Shape,
+}
+
+/// `autoware_perception_msgs/msg/PredictedObjects`: what Autoware's planners read.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct PredictedObjects {
+    /// Stamp and frame of every object.
+    pub header: Header,
+    /// The objects.
+    pub objects: Vec<PredictedObject>,
+}
+
+/// The DDS type of [`PredictedObjects`].
+pub const PREDICTED_OBJECTS: TypeName = ("autoware_perception_msgs", "PredictedObjects");
+
+/// `nav_msgs/msg/MapMetaData`.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+pub struct MapMetaData {
+    /// When the map was loaded (the grid's stamp here).
+    pub map_load_time: Time,
+    /// The side of a cell (m).
+    pub resolution: f32,
+    /// Cells along x.
+    pub width: u32,
+    /// Cells along y.
+    pub height: u32,
+    /// The corner of cell (0, 0) in the frame (rotation: none here).
+    pub origin: Pose,
+}
+
+/// `nav_msgs/msg/OccupancyGrid`: row-major cells, 0..100 (probability in percent), -1
+/// unknown.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct OccupancyGrid {
+    /// Stamp and frame.
+    pub header: Header,
+    /// Size, resolution and origin.
+    pub info: MapMetaData,
+    /// The cells, row after row (row 0 at the origin's y).
+    pub data: Vec<i8>,
+}
+
+/// The DDS type of [`OccupancyGrid`].
+pub const OCCUPANCY_GRID: TypeName = ("nav_msgs", "OccupancyGrid");
+
 /// A message shared with a publisher instead of copied: serializes as `T`. The engine
 /// keeps the `Arc` and reuses the message once the publisher has written it.
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -548,6 +634,8 @@ impl ros2_client::Message for People {}
 impl ros2_client::Message for TrackedObjects {}
 impl ros2_client::Message for MarkerArray {}
 impl ros2_client::Message for Predictions {}
+impl ros2_client::Message for PredictedObjects {}
+impl ros2_client::Message for OccupancyGrid {}
 
 #[cfg(test)]
 mod tests {

@@ -13,7 +13,9 @@ use ros2_client::{
 
 use crate::engine::Engine;
 use crate::markers::{self, MarkerStyle};
-use crate::msg::{self, MarkerArray, People, Predictions, Shared, TrackedObjects};
+use crate::msg::{
+    self, MarkerArray, OccupancyGrid, People, PredictedObjects, Predictions, Shared, TrackedObjects,
+};
 use crate::observer::Observer;
 use crate::predictor::Predictor;
 use crate::settings::Settings;
@@ -59,6 +61,10 @@ pub fn run(settings: Settings, domain_id: u16) -> Result<()> {
         style,
         Duration::from_secs_f64(p.warn_period),
     );
+    engine.set_object_paths(p.object_paths);
+    if p.grid {
+        engine.set_grid(Some(crate::grid::GridBuilder::new(p.grid_settings()?)));
+    }
     if p.observe {
         engine = engine.with_observer(Observer::new(&p.daemon_map, p.max_tracks)?);
     }
@@ -140,6 +146,26 @@ pub fn run(settings: Settings, domain_id: u16) -> Result<()> {
     let marker_pub = node
         .create_publisher::<Shared<MarkerArray>>(&marker_topic, None)
         .map_err(|e| anyhow::anyhow!("publisher {}: {e:?}", t["markers"]))?;
+    let objects_out_topic = node
+        .create_topic(
+            &topic_name(&t["objects"])?,
+            type_name(msg::PREDICTED_OBJECTS),
+            &out_qos,
+        )
+        .map_err(|e| anyhow::anyhow!("topic {}: {e:?}", t["objects"]))?;
+    let objects_pub = node
+        .create_publisher::<Shared<PredictedObjects>>(&objects_out_topic, None)
+        .map_err(|e| anyhow::anyhow!("publisher {}: {e:?}", t["objects"]))?;
+    let grid_topic = node
+        .create_topic(
+            &topic_name(&t["occupancy"])?,
+            type_name(msg::OCCUPANCY_GRID),
+            &latched,
+        )
+        .map_err(|e| anyhow::anyhow!("topic {}: {e:?}", t["occupancy"]))?;
+    let grid_pub = node
+        .create_publisher::<Shared<OccupancyGrid>>(&grid_topic, None)
+        .map_err(|e| anyhow::anyhow!("publisher {}: {e:?}", t["occupancy"]))?;
     let map_topic = node
         .create_topic(
             &topic_name(&t["map_markers"])?,
@@ -173,7 +199,7 @@ pub fn run(settings: Settings, domain_id: u16) -> Result<()> {
     let period = (p.rate > 0.0).then(|| Duration::from_secs_f64(1.0 / p.rate));
     let mut next = Instant::now() + period.unwrap_or(Duration::from_millis(100));
     tracing::info!(
-        "node {}{}{} on domain {domain_id}: {}, {} -> {}, {}; predicting {} ({}), k {}, {} s at {} s, {}",
+        "node {}{}{} on domain {domain_id}: {}, {} -> {}, {}, {}; predicting {} ({}), k {}, {} s at {} s, {}",
         settings.namespace,
         if settings.namespace.ends_with('/') {
             ""
@@ -185,6 +211,7 @@ pub fn run(settings: Settings, domain_id: u16) -> Result<()> {
         t["tracked_objects"],
         t["predictions"],
         t["markers"],
+        t["objects"],
         engine.predictor().map_label(),
         if engine.predictor().local_maps().is_some() {
             "in-process"
@@ -208,6 +235,16 @@ pub fn run(settings: Settings, domain_id: u16) -> Result<()> {
             && let Err(e) = pred_pub.publish(pr)
         {
             tracing::warn!("publishing predictions: {e:?}");
+        }
+        if let Some(g) = out.shared_grid()
+            && let Err(e) = grid_pub.publish(g)
+        {
+            tracing::warn!("publishing the occupancy grid: {e:?}");
+        }
+        if let Some(o) = out.shared_objects()
+            && let Err(e) = objects_pub.publish(o)
+        {
+            tracing::warn!("publishing objects: {e:?}");
         }
         if !out.markers().markers.is_empty()
             && let Err(e) = marker_pub.publish(out.shared_markers())

@@ -18,6 +18,7 @@ use cliff::predict::{Method, Params};
 use serde::{Deserialize, Serialize};
 use serde_yaml_ng::{Mapping, Value};
 
+use crate::grid::GridSettings;
 use crate::predictor::{PredictSettings, Source, TimeOfDay};
 use crate::tracks::{KeeperSettings, StaticTransform};
 
@@ -83,6 +84,23 @@ pub struct Parameters {
     pub marker_lifetime: f64,
     /// Map arrows are as long as this many seconds of their mean speed.
     pub map_arrow_seconds: f64,
+    /// Publish the occupancy grid (`cliff/occupancy`).
+    pub grid: bool,
+    /// The grid's corner of cell (0, 0) in the map frame, [x, y] (m).
+    pub grid_origin: Vec<f64>,
+    /// The grid's width and height (m).
+    pub grid_size: Vec<f64>,
+    /// The side of a grid cell (m).
+    pub grid_resolution: f64,
+    /// The grid's time window: from this many seconds after the prediction's start ...
+    pub grid_from: f64,
+    /// ... to this many (at most the horizon).
+    pub grid_to: f64,
+    /// Seconds over which later passes count less in the grid (0: no decay).
+    pub grid_decay: f64,
+    /// Paths per person on the objects topic (`PredictedObjects`): the best by score,
+    /// at most `k`.
+    pub object_paths: usize,
     /// Seconds between two warnings of one kind.
     pub warn_period: f64,
     /// Accepted for launch files; stamps are used whatever it says.
@@ -120,6 +138,14 @@ impl Default for Parameters {
             marker_width: 0.03,
             marker_lifetime: 1.0,
             map_arrow_seconds: 1.0,
+            object_paths: crate::engine::DEFAULT_OBJECT_PATHS,
+            grid: true,
+            grid_origin: GridSettings::default().origin.to_vec(),
+            grid_size: GridSettings::default().size.to_vec(),
+            grid_resolution: GridSettings::default().resolution,
+            grid_from: GridSettings::default().from,
+            grid_to: GridSettings::default().to,
+            grid_decay: GridSettings::default().decay,
             warn_period: 5.0,
             use_sim_time: false,
         }
@@ -127,12 +153,14 @@ impl Default for Parameters {
 }
 
 /// Default topic names (relative: resolved in the node's namespace), by key.
-pub const TOPICS: [(&str, &str); 5] = [
+pub const TOPICS: [(&str, &str); 7] = [
     ("people", "people"),
     ("tracked_objects", "tracked_objects"),
     ("predictions", "cliff/predictions"),
     ("markers", "cliff/markers"),
     ("map_markers", "cliff/map_markers"),
+    ("objects", "cliff/objects"),
+    ("occupancy", "cliff/occupancy"),
 ];
 
 /// Everything the node runs with.
@@ -264,6 +292,7 @@ impl Parameters {
         }
         self.method()?;
         self.time_of_day()?;
+        self.grid_settings()?;
         self.transforms()?;
         self.best_effort()?;
         let steps = self.predict().params.steps();
@@ -275,6 +304,27 @@ impl Parameters {
             );
         }
         Ok(())
+    }
+
+    /// The occupancy grid's settings, checked (also when `grid` is off).
+    pub fn grid_settings(&self) -> Result<GridSettings> {
+        let pair = |v: &[f64], name: &str| -> Result<[f64; 2]> {
+            match v {
+                [a, b] => Ok([*a, *b]),
+                _ => bail!("parameter {name} must be two numbers [x, y], not {v:?}"),
+            }
+        };
+        let s = GridSettings {
+            origin: pair(&self.grid_origin, "grid_origin")?,
+            size: pair(&self.grid_size, "grid_size")?,
+            resolution: self.grid_resolution,
+            from: self.grid_from,
+            to: self.grid_to,
+            decay: self.grid_decay,
+        };
+        s.check(self.horizon)
+            .map_err(|e| anyhow::anyhow!("parameter {e}"))?;
+        Ok(s)
     }
 
     /// The method.

@@ -8,8 +8,8 @@
 use std::path::PathBuf;
 
 use cliff_ros2::msg::{
-    Header, Marker, MarkerArray, People, PersonPrediction, Point2, Predictions, Time,
-    TrackedObjects,
+    Header, Marker, MarkerArray, OccupancyGrid, People, PersonPrediction, Point2, PredictedObjects,
+    PredictedPath, Predictions, Shape, Time, TrackedObjects,
 };
 use ros2_client::dds::rustdds::no_key::{DeserializerAdapter, SerializerAdapter};
 use ros2_client::dds::rustdds::{
@@ -121,6 +121,24 @@ fn marker_bytes_equal_rosbags() {
 }
 
 #[test]
+fn predicted_objects_bytes_equal_rosbags() {
+    let p: PredictedPath = check("autoware_perception_msgs/msg/PredictedPath");
+    assert_eq!((p.path.len(), p.time_step.nanosec), (3, 400_000_000));
+    let o: PredictedObjects = check("autoware_perception_msgs/msg/PredictedObjects");
+    assert_eq!(o.objects.len(), 2);
+    assert_eq!(o.objects[0].shape.type_, Shape::CYLINDER);
+    assert_eq!(o.objects[0].kinematics.predicted_paths.len(), 2);
+    assert!(o.objects[1].kinematics.predicted_paths.is_empty());
+}
+
+#[test]
+fn occupancy_grid_bytes_equal_rosbags() {
+    let g: OccupancyGrid = check("nav_msgs/msg/OccupancyGrid");
+    assert_eq!((g.info.width, g.info.height), (3, 2));
+    assert_eq!(g.data, [0, 100, -1, 37, 5, 0]);
+}
+
+#[test]
 fn every_sample_is_checked() {
     let names: Vec<String> = samples().keys().cloned().collect();
     let tested = [
@@ -128,11 +146,14 @@ fn every_sample_is_checked() {
         "std_msgs/msg/Header",
         "people_msgs/msg/People",
         "autoware_perception_msgs/msg/TrackedObjects",
+        "autoware_perception_msgs/msg/PredictedPath",
+        "autoware_perception_msgs/msg/PredictedObjects",
         "cliff_msgs/msg/Point2",
         "cliff_msgs/msg/PersonPrediction",
         "cliff_msgs/msg/Predictions",
         "visualization_msgs/msg/Marker",
         "visualization_msgs/msg/MarkerArray",
+        "nav_msgs/msg/OccupancyGrid",
     ];
     let mut a = names.clone();
     a.sort();

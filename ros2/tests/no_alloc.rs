@@ -1,6 +1,7 @@
 //! The node's own steady path allocates nothing per message: applying a People (or
 //! TrackedObjects) message of 30 people and running a cycle (prediction in-process on
-//! the THÖR1 map, then the predictions message and the line strips, built into the
+//! the THÖR1 map, then the predictions message, the line strips and the
+//! `PredictedObjects` and the occupancy grid, built into the
 //! engine's reused output) makes no heap allocation once the tracks exist and the
 //! buffers are sized. Counted by a global allocator that wraps the system one. (Decoding
 //! and serializing the CDR bytes are RustDDS's, outside this path.)
@@ -11,6 +12,7 @@ use std::time::{Duration, Instant};
 
 use cliff::predict::Params;
 use cliff_ros2::engine::Engine;
+use cliff_ros2::grid::{GridBuilder, GridSettings};
 use cliff_ros2::markers::MarkerStyle;
 use cliff_ros2::msg::{ObjectClassification, TrackedObject, TrackedObjects};
 use cliff_ros2::predictor::{PredictSettings, Predictor, Source};
@@ -44,6 +46,12 @@ static GLOBAL: Counting = Counting;
 static ONE_AT_A_TIME: std::sync::Mutex<()> = std::sync::Mutex::new(());
 
 fn engine() -> Engine {
+    let mut e = engine_without_grid();
+    e.set_grid(Some(GridBuilder::new(GridSettings::default())));
+    e
+}
+
+fn engine_without_grid() -> Engine {
     let settings = PredictSettings {
         params: Params {
             k: 20,
@@ -82,6 +90,17 @@ fn steady_people_cycles_do_not_allocate() {
         let out = e.cycle(now);
         assert_eq!(out.predictions().map(|p| p.people.len()), Some(30));
         assert_eq!(out.markers().markers.len(), 30 * 20);
+        let objects = out.objects().expect("objects each cycle");
+        assert_eq!(objects.objects.len(), 30);
+        assert!(
+            objects
+                .objects
+                .iter()
+                .all(|o| o.kinematics.predicted_paths.len() == 3)
+        );
+        let grid = out.grid().expect("a grid each cycle");
+        assert_eq!(grid.data.len(), 80 * 80);
+        assert!(grid.data.iter().any(|&v| v > 0));
     }
     let allocations = ALLOCATIONS.load(Ordering::Relaxed) - before;
     assert_eq!(e.stats().predicted, predicted + 20);

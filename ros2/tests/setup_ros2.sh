@@ -16,11 +16,11 @@ if [ ! -x "$venv/bin/python" ]; then
 fi
 # shellcheck disable=SC1091
 . "$venv/bin/activate"
-if ! python -c 'import rclpy, rosidl_adapter, colcon_core, rosbags, ament_index_python, unique_identifier_msgs' 2>/dev/null; then
+if ! python -c 'import rclpy, rosidl_adapter, colcon_core, rosbags, ament_index_python, unique_identifier_msgs, nav_msgs' 2>/dev/null; then
   pip install --quiet --disable-pip-version-check \
     'ros-jazzy-rclpy[fastrtps]' ros-jazzy-rmw-fastrtps-cpp \
     ros-jazzy-std-msgs ros-jazzy-geometry-msgs ros-jazzy-visualization-msgs \
-    ros-jazzy-builtin-interfaces ros-jazzy-sensor-msgs ros-jazzy-unique-identifier-msgs \
+    ros-jazzy-builtin-interfaces ros-jazzy-sensor-msgs ros-jazzy-unique-identifier-msgs ros-jazzy-nav-msgs \
     ros-jazzy-ament-package ros-jazzy-ament-cmake ros-jazzy-ament-cmake-core \
     ros-jazzy-ament-cmake-export-definitions ros-jazzy-ament-cmake-export-dependencies \
     ros-jazzy-ament-cmake-export-include-directories ros-jazzy-ament-cmake-export-interfaces \

@@ -10,7 +10,8 @@ ros2/tests/golden.rs checks that our serde structs give the same bytes.
 
 Type hashes: RIHS01 of our packages' types as rosbags computes them, which must equal
 the official generator's (share/<pkg>/msg/<Type>.json of the colcon build in ros2/.ws)
-and type_hashes.json here.
+and type_hashes.json here; and of the wheels' types the node writes (nav_msgs'
+OccupancyGrid), which must equal the wheel's share/<pkg>/msg/<Type>.json.
 
     python make_golden.py           # write the .cdr files and type_hashes.json
     python make_golden.py --check   # compare; prints ok/FAIL lines and `N passed, N failed`
@@ -31,6 +32,8 @@ PACKAGES = {
     "cliff_msgs": ROS2 / "cliff_msgs",
     "autoware_perception_msgs": ROS2 / "tests" / "autoware_perception_msgs",
 }
+# written by the node, defined by a Jazzy wheel (no .msg of ours): hashes checked against it
+WHEEL_TYPES = ["nav_msgs/msg/OccupancyGrid", "nav_msgs/msg/MapMetaData"]
 NUMPY = {"bool": np.bool_, "byte": np.uint8, "char": np.uint8, "int8": np.int8, "uint8": np.uint8,
          "int16": np.int16, "uint16": np.uint16, "int32": np.int32, "uint32": np.uint32,
          "int64": np.int64, "uint64": np.uint64, "float32": np.float32, "float64": np.float64}
@@ -63,9 +66,12 @@ def convert(ts, desc, v):
     return [convert(ts, (sub_kind, sub_detail), x) for x in v]
 
 
-def official_hash(typename):
+def official_hash(typename, wheel=False):
     pkg, _, ty = typename.split("/")
-    path = ROS2 / ".ws" / "install" / pkg / "share" / pkg / "msg" / f"{ty}.json"
+    if wheel:
+        path = pathlib.Path(sys.prefix) / "share" / pkg / "msg" / f"{ty}.json"
+    else:
+        path = ROS2 / ".ws" / "install" / pkg / "share" / pkg / "msg" / f"{ty}.json"
     doc = json.loads(path.read_text())
     for h in doc["type_hashes"]:
         if h["type_name"] == typename:
@@ -95,6 +101,8 @@ def main():
         else:
             path.write_bytes(data)
     hashes = {t: ts.hash_rihs01(t) for t in ours}
+    # types of the Jazzy wheels the node writes: rosbags' hash against the wheel's own
+    wheels = {t: ts.hash_rihs01(t) for t in WHEEL_TYPES}
     hash_file = HERE / "type_hashes.json"
     if a.check:
         committed = json.loads(hash_file.read_text())
@@ -106,6 +114,13 @@ def main():
                 continue
             check(h == official == committed.get(t),
                   f"{t}: RIHS01 of rosbags, of the official generator and type_hashes.json agree ({official[:20]}...)")
+        for t, h in wheels.items():
+            try:
+                official = official_hash(t, wheel=True)
+            except (OSError, KeyError) as e:
+                check(False, f"{t}: the wheel's type hash ({e})")
+                continue
+            check(h == official, f"{t}: RIHS01 of rosbags equals the Jazzy wheel's ({official[:20]}...)")
         print(f"golden: {passed} passed, {failed} failed")
         return 1 if failed else 0
     hash_file.write_text(json.dumps(hashes, indent=1) + "\n")

@@ -13,7 +13,9 @@ transform does. Optional checks: every marker ever added was deleted by the end
 (--all-deleted), the daemon's absence (--gone/--back), warnings in the node's log
 (--log, --warn), that a learning cliffd took every row the node received once and every
 track's end (--observed, its log, and --learned, its snapshot folder), and with
---expect-skipped that nothing was predicted at all. Prints one
+--expect-skipped that nothing was predicted at all. The PredictedObjects on cliff/objects
+and the occupancy grids on cliff/occupancy are checked against the predictions of the
+same cycle (check_objects, check_grid). Prints one
 line per check and `N passed, N failed`; exits 1 on any failure.
 """
 import argparse
@@ -24,6 +26,12 @@ import re
 import struct
 import subprocess
 import sys
+import uuid
+
+import numpy as np
+
+# the namespace of the People tracks' UUIDs (docs/planners.md)
+PEOPLE_NAMESPACE = uuid.uuid5(uuid.NAMESPACE_URL, "urn:cliff-ros2:people")
 
 
 def f32(v):
@@ -137,6 +145,148 @@ def check_observed(r, rows, tracks, daemon_log, learned_dir):
             f"cliffd learned the tracks ({learned} rows) and wrote a snapshot ({len(files)} files)")
 
 
+def expected_uuid(track_id):
+    """A TrackedObjects track keeps its UUID (its id is the 32 hex digits); a People track
+    gets the name-based UUID of its name."""
+    if re.fullmatch("[0-9a-f]{32}", track_id):
+        return track_id
+    return uuid.uuid5(PEOPLE_NAMESPACE, track_id).hex
+
+
+def yaw_close(a, b, tol=1e-6):
+    d = (a - b + math.pi) % (2 * math.pi) - math.pi
+    return abs(d) < tol
+
+
+def check_objects(r, preds, objects, expected, dt, paths, min_received):
+    """Each predictions message with people has a PredictedObjects message of the same
+    stamp and frame: per person, in order, its UUID, a pedestrian of probability 1, a
+    cylinder, the initial pose at the last observation heading along the observed
+    velocity (the last two observations) and that speed forward, and the best `paths`
+    samples (by the predictions' scores, else the first) as paths: the origin then the
+    sample's points, each pose heading to the next, the step dt, confidence the sample's
+    share exp(s - best) / sum over its k samples (1/k unscored)."""
+    by_stamp = {}
+    for m in objects:
+        by_stamp.setdefault(tuple(m["stamp"]), []).append(m)
+    with_people = [p for p in preds if p["people"]]
+    step = [int(dt), round((dt - int(dt)) * 1e9)]
+    bad, compared, n_paths = [], 0, 0
+    for p in with_people:
+        key = tuple(p["stamp"])
+        ms = by_stamp.get(key)
+        if not ms:
+            continue
+        m = ms[0]
+        compared += 1
+        if m["frame"] != p["frame"] or len(m["objects"]) != len(p["people"]):
+            bad.append((key, "frame or count"))
+            continue
+        hist = expected[key][1]
+        for q, o, h in zip(p["people"], m["objects"], hist):
+            who = (key, q["track_id"])
+            if o["uuid"] != expected_uuid(q["track_id"]):
+                bad.append((who, "uuid", o["uuid"]))
+            if o["classification"] != [[7, 1.0]] or o["existence"] != 1.0 or o["shape"][0] != 1 \
+                    or not 0.3 <= o["shape"][1] == o["shape"][2] <= 1.0 or not 1.0 <= o["shape"][3] <= 2.2:
+                bad.append((who, "class, existence or shape", o["classification"], o["shape"]))
+            (t0s, t0n, x0, y0), (t1s, t1n, x1, y1) = h[-2], h[-1]
+            d = secs([t1s, t1n]) - secs([t0s, t0n])
+            vx, vy = (x1 - x0) / d, (y1 - y0) / d
+            speed = math.hypot(vx, vy)
+            if abs(o["pose"][0] - x1) > 1e-9 or abs(o["pose"][1] - y1) > 1e-9 or abs(o["twist"][0] - speed) > 1e-6 * max(1.0, speed) \
+                    or o["twist"][1] != 0.0 or (speed > 1e-6 and not yaw_close(o["pose"][2], math.atan2(vy, vx))):
+                bad.append((who, "initial pose or twist", o["pose"], o["twist"], [x1, y1, speed]))
+            k = len(q["lengths"])
+            if q["scores"]:
+                sc = q["scores"]
+                best = max(v for v in sc if math.isfinite(v))
+                w = [math.exp(v - best) if math.isfinite(v) else 0.0 for v in sc]
+                conf = [v / sum(w) for v in w]
+                order = sorted(range(k), key=lambda s: (-f32(conf[s]), s))
+            else:
+                conf = [1.0 / k] * k
+                order = list(range(k))
+            order = order[:paths]
+            if len(o["paths"]) != len(order):
+                bad.append((who, "paths", len(o["paths"])))
+                continue
+            starts = [sum(q["lengths"][:s]) for s in range(k)]
+            total = 0.0
+            for path, s in zip(o["paths"], order):
+                n_paths += 1
+                total += path["confidence"]
+                want = [q["origin"]] + q["points"][starts[s]:starts[s] + q["lengths"][s]]
+                got_xy = [[f32(x), f32(y)] for x, y, _ in path["poses"]]
+                if got_xy != want or path["step"] != step or abs(path["confidence"] - conf[s]) > 1e-5:
+                    bad.append((who, "path", s, path["confidence"], conf[s]))
+                    continue
+                poses = path["poses"]
+                for i in range(len(poses) - 1):
+                    dx, dy = poses[i + 1][0] - poses[i][0], poses[i + 1][1] - poses[i][1]
+                    if math.hypot(dx, dy) > 1e-6 and not yaw_close(poses[i][2], math.atan2(dy, dx), 1e-5):
+                        bad.append((who, "heading", s, i))
+                        break
+            if total > 1.0 + 1e-5:
+                bad.append((who, "confidences sum", total))
+    r.check(compared >= min_received * len(with_people) and compared > 0 and not bad,
+            f"PredictedObjects: {compared} messages for {len(with_people)} predictions with people; UUIDs, "
+            f"pedestrian class and shape, initial state, {n_paths} paths (the best {paths} by score, "
+            "headings, step, confidences) as predicted", str(bad[:3]))
+
+
+def check_grid(r, preds, grids, dt, grid_to, min_received, origin=(-10.0, -10.0), size=(20.0, 20.0),
+               resolution=0.25):
+    """Each predictions message has an occupancy grid of the same stamp and frame, of the
+    set origin, size and resolution, with the cell under each person's last observed
+    position occupied (the window starts there: >= 50 of 100), and every cell farther
+    than 4 m from all of the window's predicted positions (origins and samples' points
+    up to grid_to) free (0)."""
+    by_stamp = {tuple(g["stamp"]): g for g in grids}
+    width, height = round(size[0] / resolution), round(size[1] / resolution)
+    bad, compared, occupied, free = [], 0, 0, 0
+    steps = int(round(grid_to / dt))
+    for p in preds:
+        g = by_stamp.get(tuple(p["stamp"]))
+        if g is None:
+            continue
+        compared += 1
+        if (g["frame"], g["width"], g["height"]) != (p["frame"], width, height) \
+                or abs(g["resolution"] - resolution) > 1e-6 or g["origin"] != list(origin) \
+                or len(g["data"]) != width * height or not all(0 <= v <= 100 for v in g["data"]):
+            bad.append((p["stamp"], "layout", g["width"], g["height"], g["resolution"], g["origin"]))
+            continue
+
+        def cell(x, y):
+            c, r_ = int((x - origin[0]) // resolution), int((y - origin[1]) // resolution)
+            return r_ * width + c if 0 <= c < width and 0 <= r_ < height else None
+
+        near = np.zeros((height, width), dtype=bool)
+        reach = int(4.0 / resolution) + 1
+        for q in p["people"]:
+            pts = [q["origin"]]
+            start = 0
+            for n in q["lengths"]:
+                pts += q["points"][start:start + min(n, steps)]
+                start += n
+            i = cell(*q["origin"])
+            if i is not None:
+                if g["data"][i] < 50:
+                    bad.append((p["stamp"], q["track_id"], "free under the person", g["data"][i]))
+                occupied += 1
+            for x, y in pts:
+                c0, r0 = int((x - origin[0]) // resolution), int((y - origin[1]) // resolution)
+                near[max(0, r0 - reach):max(0, r0 + reach + 1), max(0, c0 - reach):max(0, c0 + reach + 1)] = True
+        data = np.array(g["data"]).reshape(height, width)
+        hot = int(((data != 0) & ~near).sum())
+        free += int((~near).sum())
+        if hot:
+            bad.append((p["stamp"], "occupied far from every prediction", hot))
+    r.check(compared >= min_received * len(preds) and compared > 0 and occupied > 0 and not bad,
+            f"occupancy grids: {compared} for {len(preds)} predictions; layout as set, the cells under "
+            f"{occupied} people occupied, {free} cells far from every prediction free", str(bad[:3]))
+
+
 def expect_skipped(r, got):
     with_people = [p for p in got["predictions"] if p["people"]]
     adds = [m for m in got["markers"] if any(k["action"] == 0 for k in m)]
@@ -171,6 +321,8 @@ def main():
     ap.add_argument("--expect-skipped", action="store_true")
     ap.add_argument("--observed", default="", help="the log of a learning cliffd the node sent observations")
     ap.add_argument("--learned", default="", help="that cliffd's --learn-dir")
+    ap.add_argument("--scores", action="store_true", help="the node scores its samples")
+    ap.add_argument("--object-paths", type=int, default=3)
     a = ap.parse_args()
     r = Results(a.name)
 
@@ -219,7 +371,7 @@ def main():
     r.check(people > 0, f"{people} person predictions in {len(cycles)} messages to compare")
 
     ref_in = {"map": a.map, "method": a.method, "k": a.k, "horizon": a.horizon, "dt": a.dt,
-              "seed": a.seed, "scores": False, "cycles": [c for _, c in cycles]}
+              "seed": a.seed, "scores": a.scores, "cycles": [c for _, c in cycles]}
     res = subprocess.run([a.reference], input=json.dumps(ref_in), capture_output=True, text=True)
     if res.returncode != 0:
         r.check(False, "reference ran", res.stderr.strip())
@@ -237,6 +389,9 @@ def main():
         r.check(not mism and len(ref) == len(cycles),
                 f"positions equal the in-process reference for the same histories and seed ({people} people)",
                 f"{len(mism)} differ, first {mism[:3]}")
+
+    check_objects(r, preds, got.get("objects", []), expected, a.dt, a.object_paths, a.min_received)
+    check_grid(r, preds, got.get("grids", []), a.dt, 1.6, a.min_received)
 
     # markers: the arrays with line strips, in order, match the predictions with people
     adds = [m for m in got["markers"] if any(k["action"] == 0 for k in m)]

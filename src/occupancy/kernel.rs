@@ -1,0 +1,291 @@
+//! The kernel that smooths each sample into the cells: its settings, its width from
+//! the samples' spread, and the normal distribution function it integrates over a cell.
+
+use std::sync::OnceLock;
+
+use super::{OccupancyError, Stopped};
+
+/// How samples become occupancy: the kernel's width and cut-off and what a stopped
+/// sample means.
+///
+/// Each sample of a person at a time is a normal distribution (the same sigma on both
+/// axes) with `sigma = sqrt(person_radius^2 + bandwidth^2)`: the person's body, and the
+/// uncertainty that `k` samples leave about the distribution they were drawn from.
+/// `bandwidth = max(min_bandwidth, bandwidth_scale * spread * n^(-1/6))`, where
+/// `spread` is the root mean square distance of the person's `n` samples at that time
+/// from their mean, divided by sqrt(2) (the per-axis standard deviation), and
+/// `n^(-1/6)` is Silverman's rule for two dimensions. A cell receives the kernel's
+/// probability mass over its area (the product of the normal distribution function's
+/// differences across its edges, so cells smaller or larger than a person are both
+/// exact); the kernel is cut at `truncate` sigmas, which bounds the cost of a sample.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Settings {
+    /// The standard deviation of a person's body about their track (m).
+    pub person_radius: f64,
+    /// The factor on Silverman's bandwidth (1: the rule itself; 0: no bandwidth).
+    pub bandwidth_scale: f64,
+    /// The least bandwidth (m).
+    pub min_bandwidth: f64,
+    /// Where the kernel is cut, in sigmas (at least 1, at most 8).
+    pub truncate: f64,
+    /// What a sample that stopped before a time means there.
+    pub stopped: Stopped,
+}
+
+impl Default for Settings {
+    /// A person of 0.3 m, Silverman's bandwidth, cut at 3 sigmas (0.27 % of a
+    /// sample's mass left out per axis), stopped samples renormalised.
+    fn default() -> Self {
+        Self {
+            person_radius: 0.3,
+            bandwidth_scale: 1.0,
+            min_bandwidth: 0.0,
+            truncate: 3.0,
+            stopped: Stopped::Renormalise,
+        }
+    }
+}
+
+impl Settings {
+    /// Check every setting; the error names the first unusable one.
+    pub fn validate(&self) -> Result<(), OccupancyError> {
+        let bad = |name: &'static str, why: String| Err(OccupancyError::Setting { name, why });
+        if !(self.person_radius.is_finite() && self.person_radius > 0.0) {
+            return bad(
+                "person_radius",
+                format!("{} is not a positive number", self.person_radius),
+            );
+        }
+        if !(self.bandwidth_scale.is_finite() && self.bandwidth_scale >= 0.0) {
+            return bad(
+                "bandwidth_scale",
+                format!("{} is not a non-negative number", self.bandwidth_scale),
+            );
+        }
+        if !(self.min_bandwidth.is_finite() && self.min_bandwidth >= 0.0) {
+            return bad(
+                "min_bandwidth",
+                format!("{} is not a non-negative number", self.min_bandwidth),
+            );
+        }
+        if !(self.truncate.is_finite() && (1.0..=8.0).contains(&self.truncate)) {
+            return bad(
+                "truncate",
+                format!("{} is not between 1 and 8 sigmas", self.truncate),
+            );
+        }
+        Ok(())
+    }
+
+    /// The kernel's sigma for `n` samples whose positions have the given spread (the
+    /// per-axis standard deviation, m).
+    pub fn sigma(&self, spread: f64, n: usize) -> f64 {
+        let silverman = if n > 0 {
+            self.bandwidth_scale * spread * (n as f64).powf(-1.0 / 6.0)
+        } else {
+            0.0
+        };
+        let bw = silverman.max(self.min_bandwidth);
+        (self.person_radius * self.person_radius + bw * bw).sqrt()
+    }
+}
+
+/// The per-axis standard deviation of points about their mean: the root mean square
+/// distance from the mean divided by sqrt(2). Zero for fewer than two points.
+pub fn spread(points: &[[f32; 2]]) -> f64 {
+    let n = points.len();
+    if n < 2 {
+        return 0.0;
+    }
+    let (mut sx, mut sy) = (0.0f64, 0.0f64);
+    for p in points {
+        sx += p[0] as f64;
+        sy += p[1] as f64;
+    }
+    let (mx, my) = (sx / n as f64, sy / n as f64);
+    let mut ss = 0.0;
+    for p in points {
+        let (dx, dy) = (p[0] as f64 - mx, p[1] as f64 - my);
+        ss += dx * dx + dy * dy;
+    }
+    (ss / (2.0 * n as f64)).sqrt()
+}
+
+/// The table of the standard normal distribution function: `PHI_CELLS + 1` values over
+/// `[-PHI_RANGE, PHI_RANGE]`, read with linear interpolation (error below 1e-6).
+const PHI_RANGE: f32 = 8.0;
+const PHI_CELLS: usize = 4096;
+
+fn phi_table() -> &'static [f32; PHI_CELLS + 1] {
+    static TABLE: OnceLock<[f32; PHI_CELLS + 1]> = OnceLock::new();
+    TABLE.get_or_init(|| {
+        let mut t = [0.0f32; PHI_CELLS + 1];
+        for (i, v) in t.iter_mut().enumerate() {
+            let z = -PHI_RANGE as f64 + 2.0 * PHI_RANGE as f64 * i as f64 / PHI_CELLS as f64;
+            *v = normal_cdf(z) as f32;
+        }
+        t
+    })
+}
+
+/// The standard normal distribution function, from the complementary error function
+/// (W. J. Cody's rational approximations as given by Numerical Recipes' `erfcc`,
+/// relative error below 1.2e-7).
+pub fn normal_cdf(z: f64) -> f64 {
+    let x = -z / std::f64::consts::SQRT_2;
+    let a = x.abs();
+    let t = 1.0 / (1.0 + 0.5 * a);
+    let poly = -a * a - 1.265_512_23
+        + t * (1.000_023_68
+            + t * (0.374_091_96
+                + t * (0.096_784_18
+                    + t * (-0.186_288_06
+                        + t * (0.278_868_07
+                            + t * (-1.135_203_98
+                                + t * (1.488_515_87 + t * (-0.822_152_23 + t * 0.170_872_77))))))));
+    let erfc = t * poly.exp();
+    let erfc = if x >= 0.0 { erfc } else { 2.0 - erfc };
+    0.5 * erfc
+}
+
+/// The kernel's mass along one axis: for the cells `first..first + out.len()` whose
+/// edges lie at `origin + i * resolution`, the mass of a normal distribution of mean
+/// `mu` and standard deviation `sigma` over each cell.
+pub(super) fn axis_mass(
+    mu: f32,
+    sigma: f32,
+    origin: f32,
+    resolution: f32,
+    first: usize,
+    out: &mut [f32],
+) {
+    let table = phi_table();
+    let scale = PHI_CELLS as f32 / (2.0 * PHI_RANGE);
+    let inv = 1.0 / sigma;
+    let cdf = |edge: f32| -> f32 {
+        let z = ((edge - mu) * inv).clamp(-PHI_RANGE, PHI_RANGE);
+        let u = (z + PHI_RANGE) * scale;
+        let i = (u as usize).min(PHI_CELLS - 1);
+        let f = u - i as f32;
+        table[i] + (table[i + 1] - table[i]) * f
+    };
+    let mut lo = cdf(origin + first as f32 * resolution);
+    for (i, m) in out.iter_mut().enumerate() {
+        let hi = cdf(origin + (first + i + 1) as f32 * resolution);
+        *m = hi - lo;
+        lo = hi;
+    }
+}
+
+/// The cells `[first, last]` (inclusive) along an axis of `cells` cells that the kernel
+/// of mean `mu` reaches within `reach` metres, or `None` when it misses the grid.
+pub(super) fn axis_box(
+    mu: f32,
+    reach: f32,
+    origin: f32,
+    resolution: f32,
+    cells: usize,
+) -> Option<(usize, usize)> {
+    let lo = ((mu - reach - origin) / resolution).floor();
+    let hi = ((mu + reach - origin) / resolution).floor();
+    if !(hi >= 0.0 && lo < cells as f32) {
+        return None;
+    }
+    Some((lo.max(0.0) as usize, (hi as usize).min(cells - 1)))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn normal_cdf_matches_known_values() {
+        // values from the normal table
+        for (z, p) in [
+            (0.0, 0.5),
+            (1.0, 0.841_344_746),
+            (-1.96, 0.024_997_895),
+            (3.0, 0.998_650_102),
+            (-5.0, 2.866_515_7e-7),
+        ] {
+            assert!(
+                (normal_cdf(z) - p).abs() < 2e-7 * p.max(1e-3),
+                "{z}: {}",
+                normal_cdf(z)
+            );
+        }
+    }
+
+    #[test]
+    fn axis_masses_integrate_the_density_over_each_cell() {
+        let mut out = [0.0f32; 40];
+        axis_mass(0.37, 0.45, -2.0, 0.1, 0, &mut out);
+        for (i, m) in out.iter().enumerate() {
+            // midpoint rule over 1000 sub-intervals of the cell
+            let (a, b) = (-2.0 + i as f64 * 0.1, -2.0 + (i + 1) as f64 * 0.1);
+            let h = (b - a) / 1000.0;
+            let want: f64 = (0..1000)
+                .map(|j| {
+                    let x = a + (j as f64 + 0.5) * h;
+                    let z = (x - 0.37) / 0.45;
+                    (-0.5 * z * z).exp() / (0.45 * (2.0 * std::f64::consts::PI).sqrt()) * h
+                })
+                .sum();
+            assert!((*m as f64 - want).abs() < 2e-6, "cell {i}: {m} vs {want}");
+        }
+    }
+
+    #[test]
+    fn the_kernel_widens_with_the_spread_and_never_below_the_person() {
+        let s = Settings::default();
+        assert!((s.sigma(0.0, 20) - 0.3).abs() < 1e-12);
+        let wide = s.sigma(2.0, 20);
+        let want = (0.09f64 + (2.0 * 20f64.powf(-1.0 / 6.0)).powi(2)).sqrt();
+        assert!((wide - want).abs() < 1e-12);
+        let pts = [[1.0f32, 0.0], [-1.0, 0.0], [0.0, 1.0], [0.0, -1.0]];
+        assert!((spread(&pts) - std::f64::consts::FRAC_1_SQRT_2).abs() < 1e-9);
+        assert_eq!(axis_box(0.0, 1.0, -5.0, 0.5, 20), Some((8, 12)));
+        assert_eq!(axis_box(-7.0, 1.0, -5.0, 0.5, 20), None);
+        assert_eq!(axis_box(4.6, 1.0, -5.0, 0.5, 20), Some((17, 19)));
+    }
+
+    #[test]
+    fn unusable_settings_are_named() {
+        for (s, name) in [
+            (
+                Settings {
+                    person_radius: 0.0,
+                    ..Settings::default()
+                },
+                "person_radius",
+            ),
+            (
+                Settings {
+                    bandwidth_scale: -1.0,
+                    ..Settings::default()
+                },
+                "bandwidth_scale",
+            ),
+            (
+                Settings {
+                    min_bandwidth: f64::NAN,
+                    ..Settings::default()
+                },
+                "min_bandwidth",
+            ),
+            (
+                Settings {
+                    truncate: 0.5,
+                    ..Settings::default()
+                },
+                "truncate",
+            ),
+        ] {
+            match s.validate() {
+                Err(OccupancyError::Setting { name: n, .. }) => assert_eq!(n, name),
+                other => panic!("{name}: {other:?}"),
+            }
+        }
+        Settings::default().validate().unwrap();
+    }
+}
