@@ -35,6 +35,9 @@ use crate::settings::StartError;
 
 pub use crate::settings::{Budgets, Guards, LearnSettings};
 pub(crate) use intake::ClientKey;
+pub(crate) use snapshots::{
+    Saved, newest as newest_snapshot, usable_name, write as write_snapshot,
+};
 
 use intake::{Intake, Segment};
 use learner::{Learner, Shared, Start};
@@ -263,7 +266,10 @@ impl Drop for Learning {
 
 /// Whether a snapshot `found` can stand for the map `served` (as loaded from its file):
 /// both one map, or both time-of-day sets of the same slices and clock offset.
-fn same_shape(served: &cliff::map::MapSet, found: &cliff::map::MapSet) -> Result<(), String> {
+pub(crate) fn same_shape(
+    served: &cliff::map::MapSet,
+    found: &cliff::map::MapSet,
+) -> Result<(), String> {
     let shape = |s: &cliff::map::MapSet| {
         if s.is_sliced() {
             format!(
