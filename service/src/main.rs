@@ -275,10 +275,11 @@ struct Args {
     #[arg(long, value_name = "FILE")]
     follow_config: Option<PathBuf>,
 
-    /// The site daemon's service name (its zenoh keys derive from it).
+    /// The site daemon's service name (its zenoh keys derive from it); by default this
+    /// daemon's --service.
     #[cfg(feature = "zenoh")]
-    #[arg(long, value_name = "NAME", default_value = cliff_client::DEFAULT_SERVICE)]
-    follow_service: String,
+    #[arg(long, value_name = "NAME")]
+    follow_service: Option<String>,
 }
 
 /// A duration from seconds given on the command line; `Err` names the option.
@@ -415,7 +416,7 @@ fn run() -> Result<ExitCode, String> {
     if !args.follow.is_empty() {
         let fs = cliff_service::zenoh::FollowSettings {
             maps: args.follow.clone(),
-            service: args.follow_service.clone(),
+            service: args.follow_service.clone().unwrap_or(args.service.clone()),
             config_file: args.follow_config.clone(),
             dir: args.follow_dir.clone(),
             every: Duration::from_millis(args.follow_every_ms.max(1)),
