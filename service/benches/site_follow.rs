@@ -38,8 +38,19 @@ fn data(rel: &str) -> String {
     root.join(rel).display().to_string()
 }
 
+/// A cliffd, stopped with SIGTERM (so that it removes its iceoryx2 files) when dropped,
+/// panics included.
+struct Daemon(Child);
+
+impl Drop for Daemon {
+    fn drop(&mut self) {
+        let _ = Command::new("kill").arg(self.0.id().to_string()).status();
+        let _ = self.0.wait();
+    }
+}
+
 /// Start a cliffd and wait for its ready line.
-fn start(args: &[String], log: &str) -> Child {
+fn start(args: &[String], log: &str) -> Daemon {
     let cliffd = env("CLIFFD", "target/release/cliffd");
     let mut child = Command::new(&cliffd)
         .args(args)
@@ -48,6 +59,7 @@ fn start(args: &[String], log: &str) -> Child {
         .spawn()
         .unwrap_or_else(|e| panic!("run {cliffd}: {e}"));
     let stdout = child.stdout.take().unwrap();
+    let daemon = Daemon(child);
     let (tx, rx) = std::sync::mpsc::channel();
     std::thread::spawn(move || {
         use std::io::BufRead;
@@ -64,15 +76,9 @@ fn start(args: &[String], log: &str) -> Child {
             .unwrap_or_else(|_| panic!("cliffd did not become ready (log {log})"));
         if line.contains("ready") {
             std::thread::spawn(move || for _ in rx {});
-            return child;
+            return daemon;
         }
     }
-}
-
-fn stop(mut c: Child) {
-    // SIGTERM, so that the daemon removes its iceoryx2 files
-    let _ = Command::new("kill").arg(c.id().to_string()).status();
-    let _ = c.wait();
 }
 
 fn local(prefix: &str) -> Client {
@@ -288,7 +294,7 @@ fn main() {
         lat.len(),
         robot_seen.len()
     );
-    stop(robot);
-    stop(site);
+    drop(robot);
+    drop(site);
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -138,9 +138,10 @@ fn remote_sessions_observe_with_the_local_meaning_and_budgets() {
 
     // an observe request sent as a plain query on the prediction key: not-allowed, and
     // a prediction on the observe key: unknown-kind
-    let session = zenoh::open(cliff_client::zenoh::client_config(&[ep.clone()], None).unwrap())
-        .wait()
-        .unwrap();
+    let session =
+        zenoh::open(cliff_client::zenoh::client_config(std::slice::from_ref(&ep), None).unwrap())
+            .wait()
+            .unwrap();
     let ask = |key: &str, h: &RequestHeader, rows: &[Observation]| -> ResponseHeader {
         let mut bytes = Vec::new();
         wire::encode_request(h, rows, &mut bytes);
