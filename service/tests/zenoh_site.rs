@@ -23,6 +23,7 @@ use zenoh::Wait;
 
 const PORT_OBSERVE: u16 = 27_481;
 const PORT_FOLLOW: u16 = 27_482;
+const PORT_C: u16 = 27_484;
 
 fn endpoint(port: u16) -> String {
     format!("tcp/127.0.0.1:{port}")
@@ -339,4 +340,82 @@ fn a_robot_follows_the_sites_map_and_serves_through_the_sites_absence() {
         );
         std::thread::sleep(Duration::from_millis(20));
     }
+}
+
+#[test]
+fn the_c_abi_observes_over_zenoh_once_per_row() {
+    use cliff_client::ffi::*;
+    use std::ffi::{CStr, CString};
+    let ns = Namespace::new("zsite_c");
+    let ep = endpoint(PORT_C);
+    let _daemon = Daemon::start(
+        &ns,
+        &[
+            "--map",
+            &thor1_map(),
+            "--learn",
+            "thor1",
+            "--observe-rate",
+            "1000000",
+            "--zenoh",
+            &ep,
+        ],
+    );
+    let (endpoint, service) = (CString::new(ep).unwrap(), CString::new(SERVICE).unwrap());
+    let map = CString::new("thor1").unwrap();
+    let mut client = std::ptr::null_mut();
+    // SAFETY: valid strings and out pointer; no configuration file
+    assert_eq!(
+        unsafe {
+            cliff_client_connect_zenoh(
+                endpoint.as_ptr(),
+                service.as_ptr(),
+                std::ptr::null(),
+                &mut client,
+            )
+        },
+        CLIFF_OK
+    );
+    let tracks = thor1_round2();
+    let mut total = 0;
+    for (id, track) in tracks.iter().take(10).enumerate() {
+        let t: Vec<f64> = track.rows.iter().map(|r| r.t).collect();
+        let x: Vec<f64> = track.rows.iter().map(|r| r.position.x).collect();
+        let y: Vec<f64> = track.rows.iter().map(|r| r.position.y).collect();
+        let n = t.len().min(1024);
+        for round in 0..2 {
+            let mut out = CliffObserved::default();
+            // SAFETY: n doubles each; speed and heading NULL; a valid client
+            let code = unsafe {
+                cliff_observe(
+                    client,
+                    map.as_ptr(),
+                    id as u32,
+                    n,
+                    t.as_ptr(),
+                    x.as_ptr(),
+                    y.as_ptr(),
+                    std::ptr::null(),
+                    std::ptr::null(),
+                    0,
+                    &mut out,
+                )
+            };
+            assert_eq!(code, CLIFF_OK);
+            // the second time every row is a duplicate
+            let want = if round == 0 {
+                (n as u32, 0)
+            } else {
+                (0, n as u32)
+            };
+            assert_eq!((out.accepted, out.duplicates), want);
+        }
+        total += n;
+    }
+    assert!(total > 100);
+    // SAFETY: a static string
+    let name = unsafe { CStr::from_ptr(cliff_status_name(Status::NotAllowed.code())) };
+    assert_eq!(name.to_str().unwrap(), "not-allowed");
+    // SAFETY: the client made above, freed once
+    unsafe { cliff_client_free(client) };
 }

@@ -35,6 +35,8 @@ use crate::settings::StartError;
 
 pub use crate::settings::{Budgets, Guards, LearnSettings};
 pub(crate) use intake::ClientKey;
+// for following another daemon's map (zenoh/follow.rs)
+#[cfg(feature = "zenoh")]
 pub(crate) use snapshots::{
     Saved, newest as newest_snapshot, usable_name, write as write_snapshot,
 };
