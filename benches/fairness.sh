@@ -8,7 +8,7 @@
 #   cargo build --release -p cliff-service -p cliff-client
 #   benches/fairness.sh
 #   BIG_METHOD=improved benches/fairness.sh   # the largest improved requests instead:
-#                                             # 3 agents (cost factor 9)
+#                                             # 10 agents (cost factor 3)
 #
 # Own iceoryx2 namespace (prefix `cliff_fair_`). Needs both cores: close other work.
 set -euo pipefail
@@ -19,7 +19,7 @@ runs=${RUNS:-3}
 big_method=${BIG_METHOD:-cliff}
 case "$big_method" in
     cliff) big_agents=32 ;;
-    improved) big_agents=3 ;; # 32 x 50 x 100 positions / (50 x 100 x 10)
+    improved) big_agents=10 ;; # 32 x 50 x 100 positions / (50 x 100 x 3), rounded down
     *) echo "BIG_METHOD must be cliff or improved" >&2; exit 2 ;;
 esac
 daemon=

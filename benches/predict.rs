@@ -15,8 +15,8 @@
 //!   (4 s) where the map has no data; `_scores` a score per sample
 //!   ([`Options::scores`]); `_speed_scores` both; `_all` scores, the speed kernel and
 //!   coasting (coasting samples run longer, so more steps than the default);
-//!   `_improved` the `improved` preset (five candidates per kept sample, follow,
-//!   scores, speed prior).
+//!   `_improved` the `improved` preset (two candidates per kept sample resampled at
+//!   checkpoints, follow, trust, blend, consensus ranking, scores, speed prior).
 //! * Time of day: `atc_person_k20_50steps_set_all_day` on the all-day map of the ATC
 //!   time-of-day set (one-hour slices built from atc/train), `..._set_slice` on the
 //!   slice of the person's time of day, picked in every call (`MapSet::at`).

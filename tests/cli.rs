@@ -455,6 +455,7 @@ fn improved_is_cliff_with_the_preset_in_eval_and_predict() {
         "3",
         "--rank",
         "consensus",
+        "--motion",
     ];
     let beta2 = eval("beta2", &[&["--methods", "cliff"][..], &preset].concat());
     // the improved rows are those of CLiFF-LHMP with the preset's options, whatever

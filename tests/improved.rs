@@ -1,9 +1,10 @@
 //! The `improved` method against the paper's on held-out ATC data: a map (and its speed
 //! prior) built from training hours, people from the held-out dev hours, the same
-//! people and seeds for both methods.
+//! people and seeds for both methods, every person counted at every horizon.
 
 use std::path::{Path, PathBuf};
 
+use cliff::eval::metrics::Counting;
 use cliff::eval::protocol::{Protocol, Settings};
 use cliff::eval::{EvalConfig, SummaryRow, evaluate};
 use cliff::map::build::{BuildParams, build_map, observations_from_tracks};
@@ -46,6 +47,7 @@ fn improved_beats_the_paper_on_held_out_atc_people() {
             dt: 1.0,
             horizon: 50.0,
             full_horizon_only: true,
+            counting: Counting::Everyone,
             ..Settings::default()
         },
         params: Params {
@@ -66,11 +68,11 @@ fn improved_beats_the_paper_on_held_out_atc_people() {
         ratio(20.0),
         ratio(50.0)
     );
-    // the accuracy targets of `improved` (10 % at 50 s, 5 % at 20 s, no worse than 2 % at
-    // 5 s) with a margin for this smaller map and fewer seeds
-    assert!(ratio(5.0) < 1.02, "5 s: {:.3}", ratio(5.0));
-    assert!(ratio(20.0) < 0.95, "20 s: {:.3}", ratio(20.0));
-    assert!(ratio(50.0) < 0.95, "50 s: {:.3}", ratio(50.0));
+    // every person counted (a sample that stopped counts where it stopped): at least 15 %
+    // below the paper at 20 and 50 s, and below it at 5 s
+    assert!(ratio(5.0) < 1.0, "5 s: {:.3}", ratio(5.0));
+    assert!(ratio(20.0) < 0.85, "20 s: {:.3}", ratio(20.0));
+    assert!(ratio(50.0) < 0.85, "50 s: {:.3}", ratio(50.0));
     // the most likely sample alone beats the paper's average sample at 50 s
     let top1 = row(s, Method::Improved, 50.0).top1_ade;
     assert!(top1 < row(s, Method::Cliff, 50.0).ade, "top-1 {top1:.3}");

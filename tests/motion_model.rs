@@ -305,7 +305,8 @@ fn the_motion_option_leaves_the_model_where_the_map_has_nothing_and_bends_it_whe
             .flat_map(|s| b.sample(0, s).to_vec())
             .collect()
     };
-    // far from every location of the map: the samples are the motion model's
+    // far from every location of the map: the samples are the motion model's, but the
+    // first, which is their mean path
     let far = [walker(500.0, 500.0)];
     let (mut bent, mut alone) = (TrajectoryBatch::new(), TrajectoryBatch::new());
     predict_with(&map, &far, &params, &options, &mut bent).unwrap();
@@ -317,7 +318,13 @@ fn the_motion_option_leaves_the_model_where_the_map_has_nothing_and_bends_it_whe
     assert!(bent.lens().iter().all(|&l| l == 30));
     let (b, a) = (positions(&bent), positions(&alone));
     assert_eq!(b.len(), a.len());
-    for (p, q) in b.iter().zip(&a) {
+    let k = params.k;
+    for j in 0..30 {
+        let mean = |i: usize| (0..k).map(|s| f64::from(a[s * 30 + j][i])).sum::<f64>() / k as f64;
+        assert!((f64::from(b[j][0]) - mean(0)).abs() < 1e-3, "step {j}");
+        assert!((f64::from(b[j][1]) - mean(1)).abs() < 1e-3, "step {j}");
+    }
+    for (p, q) in b.iter().zip(&a).skip(30) {
         assert!(
             (p[0] - q[0]).abs() < 1e-3 && (p[1] - q[1]).abs() < 1e-3,
             "{p:?} {q:?}"

@@ -11,6 +11,7 @@
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
+use cliff::eval::metrics::Counting;
 use cliff::eval::protocol::Settings;
 use cliff::eval::{EvalConfig, SummaryRow, evaluate};
 use cliff::map::CliffMap;
@@ -64,7 +65,11 @@ fn run(dataset: &str, map: &str, tracks: &str, seeds: usize) -> Vec<SummaryRow> 
     let tracks = read_tracks(&data(tracks), Format::Thor).unwrap();
     let cfg = EvalConfig {
         motion_model: None,
-        settings: Settings::default(),
+        // the published code counts the samples that reached a horizon
+        settings: Settings {
+            counting: Counting::Reached,
+            ..Settings::default()
+        },
         params: Params {
             k: 20,
             beta: 1.0,
@@ -231,6 +236,7 @@ fn atc_dev_at_one_hertz_matches_the_reference() {
             obs: 8.0,
             dt: 1.0,
             horizon: 50.0,
+            counting: Counting::Reached,
             ..Settings::default()
         },
         params: Params {

@@ -33,6 +33,15 @@ RUN_LANGS = {"sh", "console", "python"}
 DEFAULT_TIMEOUT = 300.0
 READY_TIMEOUT = 60.0
 README_MAX_LINES = 300
+BENCHMARKS_MAX_LINES = 500
+HISTORY = REPO / "docs" / "performance-history.md"
+# words that tell of a past version: the guide says what the software does now, the
+# history page (HISTORY) and git say what it did
+PAST = re.compile(
+    r"\bearlier (versions?|presets?)\b|\bused to\b|\bno longer\b|\bpreviously\b|\bformerly\b"
+    r"|\bwas changed\b|\buntil recently\b|\bbefore (this|these|the) changes?\b",
+    re.I,
+)
 ZENOH_BIN = Path(os.environ.get("CLIFF_DOCS_ZENOH_BIN", REPO / "target" / "py" / "release"))
 RELEASE = REPO / "target" / "release"
 
@@ -465,6 +474,52 @@ def test_links(page: Path) -> None:
 def test_front_page_is_short() -> None:
     lines = (REPO / "README.md").read_text(encoding="utf-8").count("\n")
     assert lines <= README_MAX_LINES, f"README.md has {lines} lines; the guide (docs/) takes the details"
+
+
+def test_benchmarks_page_holds_todays_figures() -> None:
+    """BENCHMARKS.md is a few hundred lines of current figures; the journal of how they
+    came about is the history page, which it links."""
+    text = (REPO / "BENCHMARKS.md").read_text(encoding="utf-8")
+    lines = text.count("\n")
+    assert lines <= BENCHMARKS_MAX_LINES, (
+        f"BENCHMARKS.md has {lines} lines (at most {BENCHMARKS_MAX_LINES}): keep today's figures "
+        f"there and move how they came about to {HISTORY.relative_to(REPO)}"
+    )
+    assert "docs/performance-history.md" in text, "BENCHMARKS.md does not link the history page"
+
+
+def test_remeasure_script_runs_every_benchmark_of_the_page() -> None:
+    """benches/remeasure.sh (the rows of BENCHMARKS.md in one session) names every bench
+    script and cargo bench the page's rows name; `--list` runs nothing."""
+    text = (REPO / "BENCHMARKS.md").read_text(encoding="utf-8")
+    subjects = ["predictor", "motion", "accuracy", "ros2", "build", "python", "daemon", "sharing",
+                "zenoh", "zenoh-build", "learning"]
+    out = subprocess.run(["bash", str(REPO / "benches" / "remeasure.sh"), "--list", *subjects],
+                         capture_output=True, text=True, timeout=60, cwd=REPO)
+    assert out.returncode == 0, out.stderr
+    listed = out.stdout
+    named = set(re.findall(r"benches/(\w+\.(?:sh|py))", text)) - {"remeasure.sh"}
+    named |= {f"--bench {b}" for b in re.findall(r"--bench (\w+)", text)}
+    assert named, "BENCHMARKS.md names no bench"
+    missing = sorted(n for n in named if n not in listed)
+    assert not missing, f"benches/remeasure.sh does not run: {missing}"
+    bad = subprocess.run(["bash", str(REPO / "benches" / "remeasure.sh"), "--list", "no-such-subject"],
+                         capture_output=True, text=True, timeout=60, cwd=REPO)
+    assert bad.returncode != 0 and "no-such-subject" in bad.stderr
+
+
+def test_guide_speaks_in_the_present() -> None:
+    """README.md and the guide say what the software does now; words of its past
+    belong on the history page."""
+    found = []
+    for page in PAGES:
+        if page == HISTORY:
+            continue
+        for n, line in enumerate(page.read_text(encoding="utf-8").split("\n"), 1):
+            m = PAST.search(line)
+            if m:
+                found.append(f"{page.relative_to(REPO)}:{n}: '{m.group(0)}' in: {line.strip()}")
+    assert not found, "words of the past in the guide (move them to docs/performance-history.md):\n" + "\n".join(found)
 
 
 def test_words_about_the_software() -> None:

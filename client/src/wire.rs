@@ -411,11 +411,10 @@ pub fn decode_response(
     let mut h = read_common(&mut r);
     h.flags = r.u32();
     h.map_version = r.u32();
+    // a hostile header's shape saturates to usize::MAX (checked arithmetic), which no
+    // payload matches
     let need = if h.status == Status::Ok.code() {
-        // in u64: a hostile header's shape must not overflow
-        let samples = h.agents as u64 * h.k as u64;
-        let scores = if h.has_scores() { samples } else { 0 };
-        (samples * h.steps as u64 * 2 + samples + scores).min(usize::MAX as u64) as usize
+        h.payload_words()
     } else {
         0
     };

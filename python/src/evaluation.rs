@@ -94,10 +94,10 @@ impl Evaluation {
 ///     methods: list of "cliff", "cvm", "improved", "motion" (the built-in learned
 ///         motion model) and/or "cvm-last" (constant velocity of the last displacement)
 ///         (None: cliff and cvm).
-///     count: "reached" (only the samples that reached a horizon, the published code's
-///         rule) or "everyone" (every sample, a stopped one where it stopped, so every
+///     count: "everyone" (every sample, a stopped one where it stopped, so every
 ///         method is scored over the same people; ``reach`` still says how many it
-///         reached).
+///         reached; the default) or "reached" (only the samples that reached a horizon,
+///         the published code's rule).
 ///     max_speed: with "tracklets", leave out tracklets with a step faster than this
 ///         (m/s, tracking jumps); None keeps every one.
 ///
@@ -109,7 +109,7 @@ impl Evaluation {
 #[pyo3(signature = (map, tracks, *, format = None, protocol = "seconds", obs = 3.2, dt = 0.4,
     horizon = 12.0, radius = 0.7071067811865476, beta = 1.0, k = 20, seeds = 1,
     methods = None, sigma = 1.5,
-    heading = "circular-mean", topic = None, count = "reached", max_speed = None))]
+    heading = "circular-mean", topic = None, count = "everyone", max_speed = None))]
 #[allow(clippy::too_many_arguments)]
 pub fn evaluate(
     py: Python<'_>,

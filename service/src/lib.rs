@@ -5,8 +5,9 @@
 //! parts:
 //!
 //! * `settings/`: what a daemon serves and its limits ([`Settings`], [`MapSpec`],
-//!   [`StartError`]) and what a learning daemon learns and how
-//!   ([`LearnSettings`](learn::LearnSettings));
+//!   [`StartError`]), what a learning daemon learns and how
+//!   ([`LearnSettings`](learn::LearnSettings)), and the configuration file that
+//!   `cliffd --config FILE` reads ([`parse_options_file`]);
 //! * `registry.rs`: the map registry: maps, their radius limits and neighbour tables
 //!   (built at load, on reload and by a background thread, never on the serving thread),
 //!   and reloads on their own thread;
@@ -62,6 +63,7 @@ pub mod zenoh;
 
 pub use serve::{Daemon, Stats};
 pub use settings::{
-    DEFAULT_CHUNK_POSITIONS, DEFAULT_TABLE_BUDGET, DEFAULT_TABLE_RADII, MapSpec,
-    RADIUS_LIMIT_STEPS, Settings, StartError, available_cores,
+    DEFAULT_CHUNK_POSITIONS, DEFAULT_TABLE_BUDGET, DEFAULT_TABLE_RADII, FileOption, MapSpec,
+    OptionsFileError, RADIUS_LIMIT_STEPS, Settings, StartError, available_cores,
+    parse_options_file,
 };

@@ -1,5 +1,6 @@
 //! `cliffd`: the CLiFF-LHMP prediction daemon. See the `cliff_service` library.
 
+use std::ffi::OsString;
 use std::io::Write;
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -7,12 +8,12 @@ use std::sync::Arc;
 use std::sync::atomic::AtomicBool;
 use std::time::Duration;
 
-use clap::Parser;
+use clap::{CommandFactory, Parser};
 use cliff_client::protocol::{Limits, MAX_HISTORY};
 use cliff_service::learn::{Budgets, Guards, LearnSettings};
 use cliff_service::{
     DEFAULT_CHUNK_POSITIONS, DEFAULT_TABLE_BUDGET, DEFAULT_TABLE_RADII, Daemon, MapSpec, Settings,
-    available_cores,
+    available_cores, parse_options_file,
 };
 
 /// cliffd: serves CLiFF-LHMP human motion predictions over iceoryx2 shared memory.
@@ -26,8 +27,16 @@ use cliff_service::{
 /// SIGHUP reloads every map from its file (a map that fails to load keeps its old
 /// version). Logs go to stderr (RUST_LOG or --log to filter).
 #[derive(Parser, Debug)]
-#[command(name = "cliffd", version, about, long_about)]
+#[command(name = "cliffd", version, about, long_about, args_override_self = true)]
 struct Args {
+    /// Read options from FILE first, one per line as NAME = VALUE (the long option
+    /// without its --: `map = thor1=/var/lib/cliff/thor1.csv`, `workers = 2`; a line
+    /// starting with # is a comment). The command line's options come after the file's:
+    /// an option given in both takes the command line's value, and repeatable ones (map,
+    /// learn) add up. The Debian package's service reads /etc/cliff/cliffd.conf.
+    #[arg(long, value_name = "FILE")]
+    config: Option<PathBuf>,
+
     /// iceoryx2 service name to serve on.
     #[arg(long, default_value = cliff_client::DEFAULT_SERVICE)]
     service: String,
@@ -101,6 +110,12 @@ struct Args {
     /// under steady traffic).
     #[arg(long, default_value_t = 1000)]
     idle_spin_us: u64,
+
+    /// Motion model file (.motion, made by `cliff motion fit`) that the methods motion
+    /// and improved start from. Default: the built-in model (fitted on ATC's training
+    /// hours; see docs/motion.md).
+    #[arg(long, value_name = "FILE")]
+    motion_model: Option<PathBuf>,
 
     /// Threads that predict chunks in parallel (of different requests, or of one large
     /// request alone); the serving thread is one of them. Default: the number of cores.
@@ -303,8 +318,52 @@ fn main() -> ExitCode {
     }
 }
 
+/// The command line with the options of `--config FILE` (if it is given) put before
+/// the command line's own, so that the command line's values win. `Err` names the file,
+/// and the line of an option cliffd does not have.
+fn command_line() -> Result<Vec<OsString>, String> {
+    let argv: Vec<OsString> = std::env::args_os().collect();
+    let mut path = None;
+    for (i, a) in argv.iter().enumerate().skip(1) {
+        let a = a.to_string_lossy();
+        if a == "--config" {
+            // without a value clap reports the missing value
+            path = argv.get(i + 1).map(PathBuf::from);
+            break;
+        }
+        if let Some(p) = a.strip_prefix("--config=") {
+            path = Some(PathBuf::from(p));
+            break;
+        }
+    }
+    let Some(path) = path else {
+        return Ok(argv);
+    };
+    let text =
+        std::fs::read_to_string(&path).map_err(|e| format!("--config {}: {e}", path.display()))?;
+    let options = parse_options_file(&text).map_err(|e| format!("{}: {e}", path.display()))?;
+    let command = Args::command();
+    let mut expanded = vec![argv[0].clone()];
+    for option in &options {
+        let known = command
+            .get_arguments()
+            .any(|a| a.get_long() == Some(option.name.as_str()) && option.name != "config");
+        if !known {
+            return Err(format!(
+                "{} line {}: cliffd has no option --{} (cliffd --help lists them)",
+                path.display(),
+                option.line,
+                option.name
+            ));
+        }
+        expanded.extend(option.to_args().into_iter().map(OsString::from));
+    }
+    expanded.extend(argv[1..].iter().cloned());
+    Ok(expanded)
+}
+
 fn run() -> Result<ExitCode, String> {
-    let args = Args::parse();
+    let args = Args::parse_from(command_line()?);
     let filter = tracing_subscriber::EnvFilter::try_from_default_env()
         .or_else(|_| tracing_subscriber::EnvFilter::try_new(&args.log))
         .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info"));
@@ -314,6 +373,9 @@ fn run() -> Result<ExitCode, String> {
         .with_ansi(std::io::IsTerminal::is_terminal(&std::io::stderr()))
         .init();
     iceoryx2::prelude::set_log_level_from_env_or(iceoryx2::prelude::LogLevel::Error);
+    if let Some(path) = &args.config {
+        tracing::info!("options read from {} first", path.display());
+    }
 
     let stop = Arc::new(AtomicBool::new(false));
     let reload = Arc::new(AtomicBool::new(false));
@@ -356,6 +418,7 @@ fn run() -> Result<ExitCode, String> {
         idle_spin: Duration::from_micros(args.idle_spin_us),
         cleanup_interval: Duration::from_millis(args.cleanup_interval_ms.max(1)),
         workers: args.workers,
+        motion_model: args.motion_model,
         learn: LearnSettings {
             maps: learned.clone(),
             dir: args.learn_dir,

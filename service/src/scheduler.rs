@@ -28,7 +28,7 @@ use std::collections::VecDeque;
 use std::sync::Arc;
 
 use cliff::map::{CliffMap, Lookup};
-use cliff::motion::{History, State};
+use cliff::motion::{History, MotionModel, State};
 use cliff::predict::preset::cost_factor;
 use cliff::predict::{BatchMut, Options, Params, Point, Rollout, Tables};
 use cliff_client::protocol::{DecodeScratch, Decoded, Limits, RequestHeader};
@@ -117,6 +117,8 @@ pub(crate) struct Scheduler<O> {
     pool: Option<rayon::ThreadPool>,
     workers: usize,
     chunk_positions: usize,
+    /// The motion model every rollout starts from (`None`: the built-in one).
+    motion: Option<Arc<MotionModel>>,
     /// Chunks run in parallel with others (counter).
     pub parallel_chunks: u64,
 }
@@ -160,8 +162,16 @@ impl<O: Output> Scheduler<O> {
             pool,
             workers,
             chunk_positions,
+            motion: None,
             parallel_chunks: 0,
         })
+    }
+
+    /// The same scheduler with the motion model its rollouts start from (the methods
+    /// `motion` and `improved`).
+    pub fn with_motion_model(mut self, model: Option<Arc<MotionModel>>) -> Self {
+        self.motion = model;
+        self
     }
 
     /// The slot the next request decodes into, or `None` when every slot is busy.
@@ -210,10 +220,15 @@ impl<O: Output> Scheduler<O> {
         let chunk = (self.chunk_positions / per_agent.saturating_mul(weight).max(1)).max(1);
         // Decoding checked the parameters, so the rollout cannot fail; if it did, the
         // request is answered as an internal error.
+        let motion = &self.motion;
         let fresh = || {
             Rollout::new(params)
                 .and_then(|r| r.with_options(*options))
                 .map(|r| r.with_tables(Tables::CachedOnly))
+                .map(|r| match motion {
+                    Some(m) => r.with_motion_model(m.clone()),
+                    None => r,
+                })
         };
         let (rollout, helpers) = match slot.spare.take() {
             Some((mut r, helpers)) => (r.restart(params, *options).map(|()| r), helpers),

@@ -1,5 +1,6 @@
 //! cliffd's life: killed and restarted under traffic, clean shutdown on signals, map
-//! reloads that keep the old map when the new one fails.
+//! reloads that keep the old map when the new one fails, started from a configuration
+//! file, with a motion model file.
 
 mod common;
 
@@ -8,7 +9,9 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
 use cliff::map::{CliffMap, write_csv};
+use cliff::motion::{MotionFit, MotionModel, fit_motion_model};
 use cliff::predict::{Method, Params};
+use cliff::tracks::{Format, read_tracks};
 use cliff_client::{Client, ClientOptions, Error, Observation, Request, Status, WaitMode};
 use common::*;
 
@@ -230,16 +233,21 @@ fn a_second_daemon_on_the_same_service_refuses_to_start() {
 }
 
 fn walkers_on(map: &CliffMap, seed: u64) -> Request {
+    walkers(map, seed, 4, 10)
+}
+
+/// `agents` people walking along x at locations of `map` (served as `hall`), k samples.
+fn walkers(map: &CliffMap, seed: u64, agents: usize, k: usize) -> Request {
     let mut r = Request::new(
         "hall",
         &Params {
-            k: 10,
+            k,
             seed,
             ..Params::default()
         },
     )
     .unwrap();
-    for l in map.locations().iter().step_by(37).take(4) {
+    for l in map.locations().iter().step_by(37).take(agents) {
         let (x, y) = (l.position.x, l.position.y);
         r.add_agent(
             (0..4).map(|j| Observation::position(j as f64 * 0.4, x - 0.4 * (3 - j) as f64, y)),
@@ -302,4 +310,184 @@ fn reload_replaces_maps_and_keeps_the_old_one_when_the_new_one_fails() {
     client.reload_maps(Duration::from_secs(10)).expect("reload");
     assert_eq!(got(&mut client), on_thor);
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn a_configuration_file_gives_maps_and_options_and_the_command_line_overrides_it() {
+    let ns = Namespace::new("config");
+    let dir = tempfile::tempdir().unwrap();
+    let thor_file = shared_data("thor1/cliffmap.csv");
+    let conf = dir.path().join("cliffd.conf");
+    std::fs::write(
+        &conf,
+        format!(
+            "# maps and limits, as in /etc/cliff/cliffd.conf\n\
+             map = hall={}\n\n  max-k = 12\nmax-agents = 8\n",
+            thor_file.display()
+        ),
+    )
+    .unwrap();
+    let conf_arg = conf.display().to_string();
+    let daemon = Daemon::start(&ns, &["--config", &conf_arg, "--max-agents", "3"]);
+    // the file's map replaces the built-in demo
+    assert!(
+        daemon.ready_line.contains("serving hall (") && !daemon.ready_line.contains("demo"),
+        "{}",
+        daemon.ready_line
+    );
+    let thor = CliffMap::load(&thor_file).unwrap();
+    let mut client = ns.connect(WaitMode::Hybrid);
+    let rejected = |c: &mut Client, r: &Request| match c.predict(r) {
+        Err(Error::Rejected(rej)) => (rej.status, rej.limit),
+        Err(e) => panic!("{e}"),
+        Ok(p) => panic!("served {:?}", p.shape()),
+    };
+    // 4 people: over the command line's --max-agents 3, which overrides the file's 8
+    assert_eq!(
+        rejected(&mut client, &walkers(&thor, 5, 4, 10)),
+        (Status::BadAgents, 3)
+    );
+    // k 13: over the file's max-k 12 (the default is 50)
+    assert_eq!(
+        rejected(&mut client, &walkers(&thor, 5, 3, 13)),
+        (Status::BadK, 12)
+    );
+    // 3 people with k 12 are served from the file's map, as in-process
+    let req = walkers(&thor, 5, 3, 12);
+    let p = client.predict(&req).expect("served");
+    assert_eq!(
+        (p.shape(), bits(p.positions(), p.lens())),
+        local_bits(&thor, &req)
+    );
+    assert!(
+        daemon.log_text().contains("options read from"),
+        "{}",
+        daemon.log_text()
+    );
+}
+
+#[test]
+fn a_bad_configuration_file_stops_cliffd_naming_the_file_and_the_line() {
+    let ns = Namespace::new("badconfig");
+    let dir = tempfile::tempdir().unwrap();
+    let conf = dir.path().join("cliffd.conf");
+    let start = |conf: &std::path::Path| {
+        let out = std::process::Command::new(env!("CARGO_BIN_EXE_cliffd"))
+            .args(["--service", SERVICE, "--prefix", &ns.prefix, "--config"])
+            .arg(conf)
+            .output()
+            .expect("run cliffd");
+        assert!(!out.status.success(), "cliffd started");
+        String::from_utf8_lossy(&out.stderr).into_owned()
+    };
+    let path = conf.display();
+    std::fs::write(&conf, "workers = 1\n# misspelt\nwrokers = 2\n").unwrap();
+    let err = start(&conf);
+    assert!(
+        err.contains(&format!("{path} line 3: cliffd has no option --wrokers")),
+        "{err}"
+    );
+    std::fs::write(&conf, "max-agents =\n").unwrap();
+    let err = start(&conf);
+    assert!(
+        err.contains(&format!("{path}: line 1: `max-agents =` has no value")),
+        "{err}"
+    );
+    // a value clap refuses is reported by clap, naming the option
+    std::fs::write(&conf, "max-agents = many\n").unwrap();
+    let err = start(&conf);
+    assert!(
+        err.contains("--max-agents") && err.contains("many"),
+        "{err}"
+    );
+    let missing = dir.path().join("missing.conf");
+    let err = start(&missing);
+    assert!(
+        err.contains(&format!("--config {}: No such file", missing.display())),
+        "{err}"
+    );
+}
+
+/// A motion model fitted on THÖR1's round 2 (unlike the built-in one, fitted on ATC),
+/// written to `dir`.
+fn thor_motion_model(dir: &std::path::Path) -> (std::path::PathBuf, Arc<MotionModel>) {
+    let tracks = read_tracks(&shared_data("thor1/exp-1-run-2.csv"), Format::Thor).unwrap();
+    let model = fit_motion_model(&tracks, &MotionFit::default()).expect("fit");
+    let file = dir.join("thor1.motion");
+    model.save(&file).unwrap();
+    (file, Arc::new(model))
+}
+
+#[test]
+fn a_motion_model_file_is_what_motion_and_improved_start_from() {
+    let ns = Namespace::new("motionmodel");
+    let dir = tempfile::tempdir().unwrap();
+    let (file, model) = thor_motion_model(dir.path());
+    let thor_file = shared_data("thor1/cliffmap.csv");
+    let thor = CliffMap::load(&thor_file).unwrap();
+    let map_arg = format!("hall={}", thor_file.display());
+    let model_arg = file.display().to_string();
+    let _daemon = Daemon::start(&ns, &["--map", &map_arg, "--motion-model", &model_arg]);
+    let mut client = ns.connect(WaitMode::Hybrid);
+    for method in [Method::Motion, Method::Improved] {
+        let mut req = Request::new(
+            "hall",
+            &Params {
+                method,
+                k: 8,
+                seed: 3,
+                ..Params::default()
+            },
+        )
+        .unwrap();
+        for l in thor.locations().iter().step_by(37).take(3) {
+            let (x, y) = (l.position.x, l.position.y);
+            req.add_agent((0..6).map(|j| {
+                // a walker turning a little: the models' forecasts differ
+                let t = j as f64 * 0.4;
+                Observation::position(t, x + 0.5 * t, y + 0.05 * t * t)
+            }));
+        }
+        let p = client.predict(&req).expect("served");
+        let served = (p.shape(), bits(p.positions(), p.lens()));
+        let with_file = {
+            let mut lp = cliff_client::LocalPredictor::default().with_motion_model(model.clone());
+            let b = lp.predict(&thor, req.header(), req.rows()).unwrap();
+            (b.shape(), bits(b.positions(), b.lens()))
+        };
+        assert_eq!(
+            served, with_file,
+            "{method:?}: the daemon = in-process with the file's model"
+        );
+        assert_ne!(
+            served,
+            local_bits(&thor, &req),
+            "{method:?}: the file's model is not the built-in one"
+        );
+    }
+}
+
+#[test]
+fn a_bad_motion_model_file_stops_cliffd_naming_it() {
+    let ns = Namespace::new("badmotion");
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("broken.motion");
+    std::fs::write(&file, b"CLIFFMOT but not a model").unwrap();
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_cliffd"))
+        .args([
+            "--service",
+            SERVICE,
+            "--prefix",
+            &ns.prefix,
+            "--motion-model",
+        ])
+        .arg(&file)
+        .output()
+        .expect("run cliffd");
+    assert!(!out.status.success(), "cliffd started");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("motion model") && err.contains(&file.display().to_string()),
+        "{err}"
+    );
 }

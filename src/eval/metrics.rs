@@ -42,9 +42,10 @@ pub struct StepErrors {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
 pub enum Counting {
     /// Only the samples that reached the step (the published code's rule).
-    #[default]
     Reached,
-    /// Every sample: one that stopped counts where it stopped.
+    /// Every sample: one that stopped counts where it stopped, so that methods are
+    /// compared over the same people (the default).
+    #[default]
     Everyone,
 }
 

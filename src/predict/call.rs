@@ -6,7 +6,7 @@ use super::candidates::{Candidates, rank};
 use super::cvm::{cvm_score, roll_cvm};
 use super::lanes::{ANY, Extras, Lane, Lanes, PAPER, SPEED};
 use super::motion::{
-    bend_to_motion, history_of, last_displacement, map_trust, motion_path, motion_score,
+    bend_to_motion, history_of, last_displacement, map_evidence, motion_path, motion_score,
     roll_motion, sample_normal,
 };
 use super::seeds::agent_key;
@@ -168,7 +168,7 @@ impl Call<'_, '_> {
                 let step = DVec2::from_angle(observed.heading) * (observed.speed * params.dt);
                 bend_to_motion(
                     path,
-                    map_trust(map, &near, &history),
+                    map_evidence(map, &near, &history),
                     (observed.position, step),
                     params.dt,
                     extras.blend,

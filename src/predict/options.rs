@@ -120,9 +120,12 @@ pub struct Options {
     /// agreement with the other samples ([`Rank::Consensus`]).
     pub rank: Rank,
     /// Start from the learned motion model instead of constant velocity: the blend
-    /// ([`Options::blend`]) leaves the model's path, a sample that stops (where the map
-    /// has no data) goes on with the model, and the map bends the model's samples as far
-    /// as it explains the person's observed steps (see `predict/motion.rs`).
+    /// ([`Options::blend`]) leaves the model's path, a sample the map stops (where it
+    /// has no data) stands there, and the map bends the model's samples by a share that
+    /// starts at its evidence for the person (how much better it explains their observed
+    /// steps than a uniform velocity) and grows with the horizon; with no map location
+    /// near the person the samples are the model's. Every sample reaches the horizon and
+    /// the first becomes the samples' mean path (see `predict/motion.rs`).
     pub motion: bool,
 }
 
@@ -291,10 +294,10 @@ pub struct Checkpoint {
 /// fifth of the horizon (ranked with the flow walk), at half and at eight tenths, each
 /// going on twice, from `2 k` candidates (the `improved` preset). So the candidates
 /// roll 1.2 times the kept samples' steps, and the samples are chosen three times, the
-/// better half each time (BENCHMARKS.md, "Resampling the best candidates"): more accurate on average and
-/// further reaching than four candidates per sample cut to two at a fifth and to one at
-/// seven tenths (2.1 times the steps), less diverse (pairs of samples share their path
-/// up to the last checkpoint).
+/// better half each time (docs/performance-history.md, "Resampling the best
+/// candidates"): more accurate on average and further reaching than four candidates per
+/// sample cut to two at a fifth and to one at seven tenths (2.1 times the steps), less
+/// diverse (pairs of samples share their path up to the last checkpoint).
 pub const PRUNE_SCHEDULE: &[Checkpoint] = &[
     Checkpoint {
         at: 0.2,

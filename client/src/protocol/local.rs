@@ -1,8 +1,11 @@
 //! The in-process reference predictor ([`LocalPredictor`]): the daemon's validation and
 //! prediction without a daemon.
 
+use std::sync::Arc;
+
 use cliff::map::CliffMap;
-use cliff::predict::{TrajectoryBatch, predict_with_histories};
+use cliff::motion::MotionModel;
+use cliff::predict::{Rollout, TrajectoryBatch};
 
 use super::limits::Limits;
 use super::request::{Observation, RequestHeader};
@@ -33,6 +36,7 @@ pub struct LocalPredictor {
     limits: Limits,
     scratch: DecodeScratch,
     batch: TrajectoryBatch,
+    motion: Option<Arc<MotionModel>>,
 }
 
 impl Default for LocalPredictor {
@@ -48,10 +52,18 @@ impl LocalPredictor {
             limits,
             scratch: DecodeScratch::new(&limits),
             batch: TrajectoryBatch::new(),
+            motion: None,
         }
     }
 
-    /// Decode and predict with the request's options ([`cliff::predict::predict_with_histories`], from each agent's observed rows); the result
+    /// The same predictor with the motion model that the methods `motion` and
+    /// `improved` start from (as `cliffd --motion-model FILE`; default: the built-in).
+    pub fn with_motion_model(mut self, model: Arc<MotionModel>) -> Self {
+        self.motion = Some(model);
+        self
+    }
+
+    /// Decode and predict with the request's options (as [`cliff::predict::predict_with_histories`], from each agent's observed rows); the result
     /// stays in [`batch`](Self::batch), with [`TrajectoryBatch::scores`] when the response would
     /// carry them. The request's [`MapTime`](super::MapTime) is validated and `map` used whatever
     /// it says: for a time-of-day set, pass the map the daemon would pick
@@ -64,15 +76,16 @@ impl LocalPredictor {
     ) -> Result<&TrajectoryBatch, Rejection> {
         let d = decode_request(header, rows, &self.limits, &mut self.scratch)?;
         let (states, histories) = (self.scratch.states(), self.scratch.histories());
-        predict_with_histories(
-            map,
-            states,
-            histories,
-            &d.params,
-            &d.options,
-            &mut self.batch,
-        )
-        .map_err(|_| Rejection::new(Status::Internal, Field::None))?;
+        let internal = |_| Rejection::new(Status::Internal, Field::None);
+        let mut rollout = Rollout::new(&d.params)
+            .and_then(|r| r.with_options(d.options))
+            .map_err(internal)?;
+        if let Some(m) = &self.motion {
+            rollout = rollout.with_motion_model(m.clone());
+        }
+        rollout
+            .predict_batch(map, states, Some(histories), &mut self.batch)
+            .map_err(internal)?;
         Ok(&self.batch)
     }
 

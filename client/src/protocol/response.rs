@@ -77,10 +77,15 @@ impl ResponseHeader {
 }
 
 /// `u32` words of a response payload: `2` per point plus one length per sample, plus
-/// one score per sample when `scores`.
+/// one score per sample when `scores`. A shape whose count does not fit in `usize` (a
+/// hostile or corrupt header) gives `usize::MAX`, which no payload in memory matches.
 pub fn payload_words(agents: usize, k: usize, steps: usize, scores: bool) -> usize {
-    let samples = agents * k;
-    samples * steps * 2 + samples + if scores { samples } else { 0 }
+    let words = || {
+        let samples = agents.checked_mul(k)?;
+        let per_sample = steps.checked_mul(2)?.checked_add(1 + usize::from(scores))?;
+        samples.checked_mul(per_sample)
+    };
+    words().unwrap_or(usize::MAX)
 }
 
 /// Whether the response to a request of `params` and `options` carries scores: when
@@ -133,5 +138,27 @@ mod tests {
         r.write_to(&mut h);
         assert_eq!(Rejection::from_header(&h), Some(r));
         assert_eq!(r.to_string(), "non-finite (time) at agent 3 row 7");
+    }
+
+    #[test]
+    fn payload_words_count_points_lengths_and_scores_and_saturate_on_huge_shapes() {
+        // 2 agents x 3 samples x 4 steps: 24 points of 2 words, 6 lengths, 6 scores
+        assert_eq!(payload_words(2, 3, 4, false), 24 * 2 + 6);
+        assert_eq!(payload_words(2, 3, 4, true), 24 * 2 + 6 + 6);
+        assert_eq!(payload_words(0, 20, 30, true), 0);
+        // a header's largest shape (u32::MAX each): 2^96 words do not fit, and must not
+        // wrap around to a small count a short payload could match
+        let max = u32::MAX as usize;
+        assert_eq!(payload_words(max, max, max, false), usize::MAX);
+        assert_eq!(payload_words(max, max, 0, true), usize::MAX);
+        assert_eq!(payload_words(1, 1, usize::MAX / 2, true), usize::MAX);
+        let h = ResponseHeader {
+            agents: u32::MAX,
+            k: u32::MAX,
+            steps: u32::MAX,
+            flags: FLAG_SCORES,
+            ..ResponseHeader::default()
+        };
+        assert_eq!(h.payload_words(), usize::MAX);
     }
 }

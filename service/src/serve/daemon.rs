@@ -3,6 +3,9 @@
 //! loop), `accept.rs` (requests in), `respond.rs` (responses out), `reload.rs` and
 //! `old_clients.rs`.
 
+use std::sync::Arc;
+
+use cliff::motion::MotionModel;
 use cliff_client::Wakeups;
 use cliff_client::protocol::{self, Observation, PROTOCOL_VERSION, RequestHeader, ResponseHeader};
 use cliff_client::{PredictService, legacy, request_event_name, response_event_name};
@@ -190,8 +193,15 @@ impl Daemon {
         // within reason, and (with zenoh) everything remote sessions can have in flight
         let capacity =
             (clients * settings.max_active_requests).clamp(1, 64) + remote_slots(&settings);
+        let motion = match &settings.motion_model {
+            Some(path) => Some(Arc::new(
+                MotionModel::load(path).map_err(StartError::MotionModel)?,
+            )),
+            None => None,
+        };
         let scheduler = Scheduler::new(capacity, &l, settings.workers, settings.chunk_positions)
-            .map_err(StartError::Settings)?;
+            .map_err(StartError::Settings)?
+            .with_motion_model(motion);
         Ok(Daemon {
             registry,
             scheduler,

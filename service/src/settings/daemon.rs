@@ -104,6 +104,9 @@ pub struct Settings {
     pub cleanup_interval: Duration,
     /// Maps that learn from observations, and how (none by default).
     pub learn: LearnSettings,
+    /// The motion model file (`.motion`, `cliff motion fit`) that the methods `motion`
+    /// and `improved` start from (`None`: the built-in model).
+    pub motion_model: Option<PathBuf>,
 }
 
 impl Default for Settings {
@@ -123,6 +126,7 @@ impl Default for Settings {
             idle_spin: Duration::from_millis(1),
             cleanup_interval: Duration::from_secs(1),
             workers: available_cores(),
+            motion_model: None,
             learn: LearnSettings::default(),
         }
     }
@@ -197,6 +201,9 @@ pub enum StartError {
     /// Settings are unusable.
     #[error("{0}")]
     Settings(String),
+    /// The motion model file could not be loaded.
+    #[error("motion model: {0}")]
+    MotionModel(cliff::motion::MotionError),
     /// iceoryx2 refused (permissions, a service of another version, ...).
     #[error("iceoryx2: {0}")]
     Ipc(String),

@@ -55,8 +55,8 @@ pub struct EvalArgs {
     /// Which samples count at a horizon: `everyone` (a sample that stopped counts where
     /// it stopped, so every method is scored over the same people; reach is reported
     /// beside) or `reached` (only the samples that reached it, the published code's
-    /// rule).
-    #[arg(long, value_name = "RULE", default_value = "reached")]
+    /// rule, as the parity tables use).
+    #[arg(long, value_name = "RULE", default_value = "everyone")]
     pub count: Counting,
     /// Tracklets protocol: leave out tracklets with a step faster than this (m/s,
     /// tracking jumps) [default: none left out].

@@ -83,9 +83,9 @@ pub struct Settings {
     /// bounds (infinite: every tracklet).
     pub max_speed: f64,
     /// Which samples count at a horizon: every sample, a stopped one where it stopped
-    /// ([`Counting::Everyone`], so every method is scored over the same people), or only
-    /// those that reached it ([`Counting::Reached`], the published code's rule and the
-    /// default, for parity).
+    /// ([`Counting::Everyone`], so every method is scored over the same people; the
+    /// default), or only those that reached it ([`Counting::Reached`], the published
+    /// code's rule, for parity with it).
     pub counting: Counting,
 }
 
@@ -103,7 +103,7 @@ impl Default for Settings {
             window_every: 0.0,
             full_horizon_only: false,
             max_speed: f64::INFINITY,
-            counting: Counting::Reached,
+            counting: Counting::Everyone,
         }
     }
 }
