@@ -8,6 +8,8 @@
 //!   `bad-version`;
 //! * [`wire`]: the same messages as little-endian bytes, for transports other than
 //!   iceoryx2 (`docs/zenoh-protocol.md`);
+//! * [`map_wire`]: map versions over zenoh, for a daemon that follows another's map,
+//!   and the zenoh keys of observations and maps;
 //! * `client.rs`: the [`Client`]: connect to a daemon, send a [`Request`], get a
 //!   [`Prediction`] that borrows the response in shared memory (no copy);
 //! * `options.rs`: [`ClientOptions`] and the [`WaitMode`];
@@ -23,7 +25,7 @@
 //! * `zenoh` (feature `zenoh`): `Client::connect_zenoh` reaches a daemon on another
 //!   host with the same [`Request`], [`Prediction`] and errors.
 //!
-//! Everything outside [`protocol`], [`legacy`], [`wire`], [`ffi`] and `zenoh` is
+//! Everything outside [`protocol`], [`legacy`], [`wire`], [`map_wire`], [`ffi`] and `zenoh` is
 //! re-exported here, at the crate root.
 //!
 //! ```no_run
@@ -66,6 +68,7 @@ mod error;
 pub mod ffi;
 mod ipc;
 pub mod legacy;
+pub mod map_wire;
 mod observe;
 mod options;
 mod prediction;

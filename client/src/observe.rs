@@ -13,8 +13,8 @@ use crate::protocol::{
 
 /// Rows of tracked people for a map the daemon learns (`cliffd --learn NAME`): each
 /// track under the id the client gives the person, oldest row first. Track ids belong to
-/// the client: the same id from two clients is two people (over zenoh, two
-/// `ObserveRequest`s are two clients). Reuse it between
+/// the client: the same id from two clients is two people (over zenoh, a client is its
+/// zenoh session: one [`Client`]). Reuse it between
 /// calls ([`clear`](Self::clear) keeps the allocation). The daemon counts each row once
 /// per client, track and time, so a robot may send every person's whole recent history
 /// each time.
@@ -89,10 +89,9 @@ impl ObserveRequest {
     }
 }
 
-/// A number that tells this process's observe requests apart from other processes' over
-/// zenoh, where the daemon cannot see who sent a query: the header's `seed` carries it
-/// (over iceoryx2 the daemon knows the client port and ignores it). Time, process id and a
-/// counter, mixed.
+/// A number the header's `seed` carries for each `ObserveRequest` (daemons count
+/// observations per client port, or per zenoh session, and ignore it). Time, process id
+/// and a counter, mixed.
 fn session_id() -> u64 {
     use std::sync::atomic::{AtomicU64, Ordering};
     static N: AtomicU64 = AtomicU64::new(0);
@@ -111,8 +110,9 @@ impl Client {
     /// Send observations with the client's deadline; the daemon's counts on success.
     /// [`Error::Rejected`] with [`Status::OverBudget`](crate::Status::OverBudget) means
     /// nothing was taken (the client sends faster, or holds more open tracks, than its
-    /// budget): send again later. At most [`MAX_OBSERVE_ROWS`] rows per call (a daemon
-    /// may accept fewer).
+    /// budget): send again later. Over zenoh, [`Status::NotAllowed`](crate::Status::NotAllowed)
+    /// means the daemon's access rules keep this session from teaching the map. At most
+    /// [`MAX_OBSERVE_ROWS`] rows per call (a daemon may accept fewer).
     pub fn observe(&mut self, request: &ObserveRequest) -> Result<ObserveReply, Error> {
         let deadline = self.options().deadline;
         self.observe_with_deadline(request, deadline)

@@ -8,6 +8,13 @@
 //! endpoints, with multicast and gossip scouting off and a reconnection retry of
 //! 100-500 ms, unless a configuration file says otherwise.
 //!
+//! Observe requests go to the daemon's observe key ([`crate::map_wire::observe_key_for`]),
+//! which zenoh's access control may close to sessions that are not allowed to teach the
+//! map: when nothing answers there, the client asks the prediction key, where a daemon
+//! answers an observe request [`Status::NotAllowed`](crate::Status::NotAllowed)
+//! ([`Error::Rejected`]), and reports [`Error::NoDaemon`] only when nothing answers there
+//! either.
+//!
 //! Failures map to the same [`Error`]s as locally: [`Error::NoDaemon`] when the daemon
 //! cannot be reached or does not answer on the key (zenoh reports no daemon, a daemon
 //! that died mid-request and an access-control denial alike: no reply), [`Error::Deadline`],
@@ -23,7 +30,7 @@ use zenoh::qos::CongestionControl;
 use zenoh::query::ConsolidationMode;
 
 use crate::error::{Error, version_mismatch};
-use crate::protocol::{Observation, RequestHeader, ResponseHeader};
+use crate::protocol::{KIND_OBSERVE, Observation, RequestHeader, ResponseHeader};
 use crate::wire;
 
 /// The key expression a daemon serving the service `service` answers on: the service
@@ -103,6 +110,8 @@ pub fn config_names(text: &str, key: &str) -> bool {
 pub(crate) struct ZenohLink {
     session: zenoh::Session,
     key: KeyExpr<'static>,
+    /// Where observe requests go.
+    observe_key: KeyExpr<'static>,
     /// Where the daemon is, for messages (`cliff/predict via zenoh tcp/...`).
     target: String,
     /// The last response's payload words (what a [`crate::Prediction`] borrows).
@@ -130,6 +139,8 @@ impl ZenohLink {
                 "service name '{service}' is not a zenoh key expression: {e}"
             ))
         })?;
+        let observe_key = KeyExpr::try_from(crate::map_wire::observe_key_for(service))
+            .map_err(|e| Error::InvalidRequest(format!("service name '{service}': {e}")))?;
         let config = client_config(endpoints, config_file).map_err(Error::InvalidRequest)?;
         let session = zenoh::open(config).wait().map_err(|e| {
             // a client-mode session fails at once when no endpoint answers
@@ -145,6 +156,7 @@ impl ZenohLink {
         Ok(ZenohLink {
             session,
             key,
+            observe_key,
             target,
             payload: Vec::new(),
         })
@@ -161,21 +173,54 @@ impl ZenohLink {
         // zenoh takes the buffer over (no copy), so each request has its own
         let mut bytes = Vec::new();
         wire::encode_request(header, rows, &mut bytes);
+        if header.kind != KIND_OBSERVE {
+            return self.query(false, bytes, deadline, start);
+        }
+        match self.query(true, bytes, deadline, start) {
+            Err(Error::NoDaemon { .. }) => {
+                // no daemon, or access control keeps this session off the observe key:
+                // the prediction key tells which (a daemon answers `not-allowed` there)
+                let mut probe = Vec::new();
+                wire::encode_request(header, &[], &mut probe);
+                self.query(false, probe, deadline, start)
+            }
+            r => r,
+        }
+    }
+
+    /// One query on the prediction key (or the observe key) with the encoded request
+    /// `bytes`, within `deadline` from `start`.
+    fn query(
+        &mut self,
+        observe: bool,
+        bytes: Vec<u8>,
+        deadline: Duration,
+        start: Instant,
+    ) -> Result<ResponseHeader, Error> {
+        let key = if observe {
+            &self.observe_key
+        } else {
+            &self.key
+        };
+        let left = deadline.saturating_sub(start.elapsed());
+        if left.is_zero() {
+            return Err(Error::Deadline { deadline });
+        }
         let replies = self
             .session
-            .get(&self.key)
+            .get(key)
             .payload(ZBytes::from(bytes))
             // the session this request counts for (the daemon allows each session as
             // many requests in flight as a local client)
             .attachment(ZBytes::from(self.session.zid().to_le_bytes()))
             .consolidation(ConsolidationMode::None)
             .congestion_control(CongestionControl::Drop)
-            .timeout(deadline)
+            .timeout(left)
             .wait()
             .map_err(|e| Error::Zenoh(format!("cannot send the query: {e}")))?;
         // zenoh ends the query at the deadline; the margin only guards against a stuck
         // channel
-        let reply = match replies.recv_timeout(deadline + Duration::from_millis(100)) {
+        let reply = match replies.recv_timeout(left + Duration::from_millis(100)) {
             // zenoh's query timer counts whole milliseconds, so a shorter deadline can
             // pass before zenoh ends the query: a reply after it is late all the same
             Ok(Some(_)) if start.elapsed() > deadline => {

@@ -1,6 +1,8 @@
 //! Request decoding: arbitrary header fields and rows into `decode_request`, then, when
 //! the request is accepted, `predict_with` (its options, scores) on the demo map, which
-//! must succeed.
+//! must succeed; an observe request (kind 2, local or on the zenoh observe key) into
+//! `validate_observe` too, and every request through the zenoh byte encoding
+//! (`wire::encode_request`, `wire::decode_request`), which must give it back.
 //!
 //! Limits are smaller than the daemon's defaults (4 agents, 8 samples, 25 steps) so that
 //! an accepted request predicts in microseconds; the code paths are the same.
@@ -12,9 +14,10 @@ use arbitrary::Arbitrary;
 use cliff::map::CliffMap;
 use cliff::predict::{TrajectoryBatch, predict_with};
 use cliff_client::protocol::{
-    DecodeScratch, Limits, MAP_NAME_BYTES, Observation, PROTOCOL_VERSION, RequestHeader,
-    decode_request,
+    DecodeScratch, KIND_OBSERVE, Limits, MAP_NAME_BYTES, Observation, PROTOCOL_VERSION,
+    RequestHeader, decode_request, validate_observe,
 };
+use cliff_client::wire;
 use libfuzzer_sys::fuzz_target;
 
 /// A number the fuzzer can make plausible (a small multiple of 1/16) or anything.
@@ -148,6 +151,26 @@ fuzz_target!(|input: Input| {
             heading: r.heading.get(),
         })
         .collect();
+    let mut bytes = Vec::new();
+    wire::encode_request(&header, &rows, &mut bytes);
+    let mut back = Vec::new();
+    match wire::decode_request(&bytes, 512, &mut back) {
+        Ok(h) => {
+            assert_eq!(back.len(), rows.len());
+            assert_eq!(
+                (h.kind, h.request_id, h.seed),
+                (header.kind, header.request_id, header.seed)
+            );
+        }
+        Err(e) => assert!(
+            header.version != PROTOCOL_VERSION,
+            "an encoded request of this version does not decode: {e}"
+        ),
+    }
+    if header.kind == KIND_OBSERVE {
+        let _ = validate_observe(&header, &rows, 64);
+        return;
+    }
     let mut scratch = DecodeScratch::new(&LIMITS);
     let Ok(decoded) = decode_request(&header, &rows, &LIMITS, &mut scratch) else {
         return;

@@ -27,7 +27,8 @@ impl Client {
     /// Returns a dict: ``accepted`` (rows new to the daemon), ``duplicates`` (rows it had)
     /// and ``map_version`` (the learned map's version). Raises ``Rejected`` with status
     /// "over-budget" when the client is over its budget (nothing was taken: send again
-    /// later), "not-learning" for a map the daemon serves but does not learn.
+    /// later), "not-learning" for a map the daemon serves but does not learn, and over
+    /// zenoh "not-allowed" when the site's access rules keep this robot from teaching.
     ///
     /// Example:
     ///     >>> c.observe("thor1", 7, np.array([[0.0, 1.0, 2.0], [0.4, 1.5, 2.0]]))

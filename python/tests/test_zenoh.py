@@ -283,3 +283,31 @@ def test_the_robot_loop_example_over_zenoh(remote):
     predicted, _, cycles = last.split(" cycles predicted")[0].partition(" of ")
     assert int(predicted) == int(cycles) >= 10, out.stdout
     assert "in 4 s person 0 " in out.stdout, out.stdout
+
+
+def test_zenoh_observe_counts_each_row_once_per_session(tmp_path):
+    require_zenoh()
+    port = free_port()
+    d = Daemon(new_prefix("zo"), [f"thor1={THOR1_MAP}"], tmp_path / "cliffd-zo.log",
+               extra=["--zenoh", endpoint(port), "--learn", "thor1", "--observe-rate", "1000000"],
+               exe=ZENOH_CLIFFD, service=SERVICE).start()
+    try:
+        client = cliff_lhmp.Client.connect_zenoh(endpoint(port), SERVICE, deadline=5.0)
+        people = list(read_people(THOR1_TRACKS).values())[:10]
+        for track, rows in enumerate(people):
+            # a robot's overlapping histories: the first half, then all rows
+            half = rows[: max(1, len(rows) // 2)]
+            first = client.observe("thor1", track, half)
+            second = client.observe("thor1", track, rows, end=True)
+            assert first["accepted"] == len(half) and first["duplicates"] == 0
+            assert second["accepted"] == len(rows) - len(half)
+            assert second["duplicates"] == len(half)
+        # another zenoh session is another client: its track 0 is another person
+        other = cliff_lhmp.Client.connect_zenoh(endpoint(port), SERVICE, deadline=5.0)
+        assert other.observe("thor1", 0, people[0])["accepted"] == len(people[0])
+        with pytest.raises(cliff_lhmp.Rejected) as e:
+            client.observe("elsewhere", 1, WALK)
+        assert e.value.status == "unknown-map"
+    finally:
+        d.stop()
+        remove_namespace(d.prefix)

@@ -19,7 +19,9 @@
 //! * [`learn`]: maps that learn while they serve (`cliffd --learn`): observations in,
 //!   the background learner, new versions swapped in, snapshots;
 //! * `zenoh` (feature `zenoh`): the frontend for remote requests over a zenoh queryable,
-//!   validated and scheduled like local ones.
+//!   validated and scheduled like local ones; observations on a key of their own; the
+//!   maps' versions for daemons that follow them, and following another daemon's map
+//!   (`cliffd --follow`).
 //!
 //! ## What one request can cost
 //!

@@ -259,6 +259,42 @@ struct Args {
     #[arg(long, value_name = "N", default_value_t = cliff_service::zenoh::DEFAULT_NICE,
           value_parser = clap::value_parser!(i32).range(0..=19))]
     zenoh_nice: i32,
+
+    /// Follow the map NAME that another daemon (the site's, `--learn NAME`) serves over
+    /// zenoh at ENDPOINT (repeatable; endpoints comma-separated): each version it
+    /// learns is fetched, checked, written to --follow-dir and swapped in between
+    /// requests, keeping the site's version numbers. The map must be served here too
+    /// (--map NAME=PATH: what is served until the first version comes).
+    #[cfg(feature = "zenoh")]
+    #[arg(long = "follow", value_name = "NAME=ENDPOINT")]
+    follow: Vec<cliff_service::zenoh::FollowSpec>,
+
+    /// Directory of the followed maps' versions: each version taken is written there,
+    /// and the newest good one is served at start (while the site is away).
+    #[cfg(feature = "zenoh")]
+    #[arg(long, value_name = "DIR")]
+    follow_dir: Option<PathBuf>,
+
+    /// How often the site is asked for a newer version (ms).
+    #[cfg(feature = "zenoh")]
+    #[arg(long, value_name = "MS", default_value_t = 500)]
+    follow_every_ms: u64,
+
+    /// The largest map version taken from the site (MiB).
+    #[cfg(feature = "zenoh")]
+    #[arg(long, value_name = "MIB", default_value_t = cliff_service::zenoh::DEFAULT_MAX_MAP_BYTES >> 20)]
+    follow_max_mib: usize,
+
+    /// A zenoh configuration file for the link to the site (JSON5: TLS certificates).
+    #[cfg(feature = "zenoh")]
+    #[arg(long, value_name = "FILE")]
+    follow_config: Option<PathBuf>,
+
+    /// The site daemon's service name (its zenoh keys derive from it); by default this
+    /// daemon's --service.
+    #[cfg(feature = "zenoh")]
+    #[arg(long, value_name = "NAME")]
+    follow_service: Option<String>,
 }
 
 /// A duration from seconds given on the command line; `Err` names the option.
@@ -437,6 +473,24 @@ fn run() -> Result<ExitCode, String> {
                 eprintln!("error: {e}");
                 return Ok(ExitCode::FAILURE);
             }
+        }
+    }
+    #[cfg(feature = "zenoh")]
+    if !args.follow.is_empty() {
+        let fs = cliff_service::zenoh::FollowSettings {
+            maps: args.follow.clone(),
+            service: args.follow_service.clone().unwrap_or(args.service.clone()),
+            config_file: args.follow_config.clone(),
+            dir: args.follow_dir.clone(),
+            every: Duration::from_millis(args.follow_every_ms.max(1)),
+            max_bytes: args.follow_max_mib.saturating_mul(1 << 20),
+            keep_versions: args.learn_keep_versions,
+            ..Default::default()
+        };
+        if let Err(e) = daemon.follow(&fs) {
+            tracing::error!("{e}");
+            eprintln!("error: {e}");
+            return Ok(ExitCode::FAILURE);
         }
     }
     #[cfg(not(feature = "zenoh"))]

@@ -24,53 +24,6 @@ fn thor1_map() -> String {
     format!("thor1={}", shared_data("thor1/cliffmap.csv").display())
 }
 
-/// Send `tracks` as a robot at 2.5 Hz would: at every step of the recording, each person
-/// in view with their last `history` rows (so each row is sent up to `history` times), the
-/// last row of a track marked as its end. The counts summed over all replies.
-fn observe_like_a_robot(
-    client: &mut Client,
-    map: &str,
-    tracks: &[Track],
-    history: usize,
-) -> (u64, u64, u32) {
-    let mut request = ObserveRequest::new(map).unwrap();
-    let (t0, t1) = tracks
-        .iter()
-        .flat_map(|t| t.rows.iter().map(|r| r.t))
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), t| {
-            (a.min(t), b.max(t))
-        });
-    let (mut accepted, mut duplicates, mut version) = (0, 0, 0);
-    let mut now = t0;
-    while now <= t1 + 0.4 {
-        request.clear();
-        for (id, t) in tracks.iter().enumerate() {
-            let seen: Vec<_> = t.rows.iter().filter(|r| r.t <= now).collect();
-            if seen.is_empty()
-                || t.rows[0].t > now
-                || seen.len() == t.rows.len() && seen[seen.len() - 1].t < now - 0.4
-            {
-                continue;
-            }
-            let from = seen.len().saturating_sub(history);
-            let rows: Vec<_> = seen[from..].iter().map(|r| **r).collect();
-            request.add_track_rows(id as u32, &rows);
-            if seen.len() == t.rows.len() {
-                request.end_track();
-            }
-        }
-        now += 0.4;
-        if request.rows().is_empty() {
-            continue;
-        }
-        let r = client.observe(&request).expect("observations taken");
-        accepted += r.accepted as u64;
-        duplicates += r.duplicates as u64;
-        version = r.map_version;
-    }
-    (accepted, duplicates, version)
-}
-
 #[test]
 fn overlapping_histories_of_real_people_count_each_row_once_per_client() {
     let ns = Namespace::new("learn_dedup");

@@ -378,13 +378,13 @@ fn zenohs_threads_run_at_a_lower_priority_than_the_serving_loop() {
             "a thread {name}* among {all:?}"
         );
     }
-    // cliffd-zenoh-reply and -refuse (a thread's name in /proc is cut at 15 bytes) keep
-    // the daemon's priority, as every thread of the daemon's own does
+    // cliffd-zenoh-reply, -refuse and -maps (a thread's name in /proc is cut at 15 bytes)
+    // keep the daemon's priority, as every thread of the daemon's own does
     let ours = all
         .iter()
         .filter(|(n, _)| n.starts_with("cliffd-zenoh"))
         .count();
-    assert_eq!(ours, 2, "the reply and refusal threads among {all:?}");
+    assert_eq!(ours, 3, "the reply, refusal and map threads among {all:?}");
     for (name, nice) in &zenoh {
         assert_eq!(*nice, (base + 7).min(19), "thread {name}: {all:?}");
     }

@@ -254,7 +254,7 @@ pub extern "C" fn cliff_last_error() -> *const c_char {
 /// The name of a status code (`"unknown-map"`, ...); a static string.
 #[unsafe(no_mangle)]
 pub extern "C" fn cliff_status_name(status: u32) -> *const c_char {
-    const NAMES: [&CStr; 22] = [
+    const NAMES: [&CStr; 23] = [
         c"ok",
         c"bad-version",
         c"unknown-map",
@@ -277,6 +277,7 @@ pub extern "C" fn cliff_status_name(status: u32) -> *const c_char {
         c"over-budget",
         c"not-learning",
         c"unknown-version",
+        c"not-allowed",
     ];
     match Status::from_code(status) {
         Some(s) => NAMES[s.code() as usize].as_ptr(),

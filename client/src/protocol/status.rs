@@ -69,6 +69,11 @@ pub enum Status {
     /// learning daemon keeps the map as loaded (version 0), the version served and the
     /// few before it (`cliffd --learn-keep-versions`); `limit` holds the version served.
     UnknownVersion = 21,
+    /// Over zenoh, an observe request on the prediction key: a daemon takes observations
+    /// only on its observe key (the service name followed by `/observe`), which zenoh's
+    /// access control may close to sessions that are not allowed to teach the map; a
+    /// client whose query there got no answer is told this status. Nothing was taken.
+    NotAllowed = 22,
 }
 
 impl Status {
@@ -98,6 +103,7 @@ impl Status {
             19 => OverBudget,
             20 => NotLearning,
             21 => UnknownVersion,
+            22 => NotAllowed,
             _ => return None,
         })
     }
@@ -133,6 +139,7 @@ impl Status {
             OverBudget => "over-budget",
             NotLearning => "not-learning",
             UnknownVersion => "unknown-version",
+            NotAllowed => "not-allowed",
         }
     }
 }
@@ -343,11 +350,11 @@ mod tests {
             assert_eq!(Field::from_code(c) as u32, c);
         }
         assert_eq!(Field::from_code(24), Field::None);
-        for c in 0..22 {
+        for c in 0..23 {
             let s = Status::from_code(c).unwrap();
             assert_eq!(s.code(), c);
         }
-        assert_eq!(Status::from_code(22), None);
+        assert_eq!(Status::from_code(23), None);
         let r = Rejection::over(Status::Busy, Field::None, 2);
         assert_eq!(r.to_string(), "busy, limit 2");
         let r = Rejection::at(Status::NonFinite, Field::Time, 3, 7);

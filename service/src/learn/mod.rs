@@ -35,6 +35,11 @@ use crate::settings::StartError;
 
 pub use crate::settings::{Budgets, Guards, LearnSettings};
 pub(crate) use intake::ClientKey;
+// for following another daemon's map (zenoh/follow.rs)
+#[cfg(feature = "zenoh")]
+pub(crate) use snapshots::{
+    Saved, newest as newest_snapshot, usable_name, write as write_snapshot,
+};
 
 use intake::{Intake, Segment};
 use learner::{Learner, Shared, Start};
@@ -263,7 +268,10 @@ impl Drop for Learning {
 
 /// Whether a snapshot `found` can stand for the map `served` (as loaded from its file):
 /// both one map, or both time-of-day sets of the same slices and clock offset.
-fn same_shape(served: &cliff::map::MapSet, found: &cliff::map::MapSet) -> Result<(), String> {
+pub(crate) fn same_shape(
+    served: &cliff::map::MapSet,
+    found: &cliff::map::MapSet,
+) -> Result<(), String> {
     let shape = |s: &cliff::map::MapSet| {
         if s.is_sliced() {
             format!(

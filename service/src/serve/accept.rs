@@ -34,8 +34,31 @@ impl Daemon {
             };
             any = true;
             let h = *req.header();
-            if h.version == PROTOCOL_VERSION && h.kind == protocol::KIND_OBSERVE {
-                let client = super::observe::remote_client(&h);
+            let observing = h.version == PROTOCOL_VERSION && h.kind == protocol::KIND_OBSERVE;
+            if observing != req.on_observe_key() && h.version == PROTOCOL_VERSION {
+                // observations only on the observe key (which access control may close),
+                // and nothing else there
+                let status = if observing {
+                    Status::NotAllowed
+                } else {
+                    Status::UnknownKind
+                };
+                debug!(
+                    request_id = h.request_id,
+                    "remote request on the wrong key: {status}"
+                );
+                self.stats.rejected += 1;
+                let rej = Rejection {
+                    status,
+                    ..internal()
+                };
+                if !req.reject(&rej) {
+                    self.stats.failed += 1;
+                }
+                continue;
+            }
+            if observing {
+                let client = super::observe::remote_client(req.session());
                 let answer = super::observe::observe(
                     &mut self.learning,
                     &self.registry,

@@ -49,6 +49,9 @@ pub struct Daemon {
     /// Remote clients over zenoh, once [`Daemon::serve_zenoh`] started them.
     #[cfg(feature = "zenoh")]
     pub(super) remote: Option<Remote>,
+    /// Maps that follow another daemon's, once [`Daemon::follow`] started them.
+    #[cfg(feature = "zenoh")]
+    pub(super) following: Option<crate::zenoh::Following>,
 }
 
 /// Scheduler slots kept for remote requests: every remote session's requests in flight
@@ -217,6 +220,8 @@ impl Daemon {
             learning,
             #[cfg(feature = "zenoh")]
             remote: None,
+            #[cfg(feature = "zenoh")]
+            following: None,
             settings,
         })
     }
@@ -253,11 +258,68 @@ impl Daemon {
             memory_bound_mib = bound as f64 / (1 << 20) as f64,
             "serving remote clients on {description}"
         );
+        let entries = self.registry.entries();
+        let maps = frontend.serve_maps(
+            &settings.key,
+            entries
+                .iter()
+                .map(|e| (e.name.clone(), e.version, e.set.clone()))
+                .collect(),
+        )?;
+        let published = entries.iter().map(|e| e.version).collect();
         self.remote = Some(Remote {
             frontend,
             buffers: Vec::new(),
+            maps,
+            published,
         });
         Ok(description)
+    }
+
+    /// Follow maps that another daemon serves over zenoh ([`crate::zenoh::Following`]):
+    /// each followed map must be served (`--map NAME=PATH`, what is served until the
+    /// first version comes) and not learned here.
+    #[cfg(feature = "zenoh")]
+    pub fn follow(&mut self, settings: &crate::zenoh::FollowSettings) -> Result<(), StartError> {
+        let following = crate::zenoh::Following::start(
+            settings,
+            &mut self.registry,
+            TablePolicy::from_settings(&self.settings),
+            &self.settings.learn.maps,
+        )?;
+        info!(
+            maps = settings.maps.len(),
+            every_ms = settings.every.as_millis() as u64,
+            "following the site's maps"
+        );
+        self.following = Some(following);
+        Ok(())
+    }
+
+    /// Between requests: swap in the followed maps' versions, and publish every map's
+    /// new version to followers.
+    #[cfg(feature = "zenoh")]
+    pub(super) fn zenoh_housekeeping(&mut self) {
+        if let Some(f) = self.following.as_mut() {
+            f.housekeeping(&mut self.registry);
+        }
+        if let Some(r) = self.remote.as_mut() {
+            for (e, published) in self.registry.entries().iter().zip(&mut r.published) {
+                if e.version != *published {
+                    r.maps.publish(&e.name, e.version, &e.set);
+                    *published = e.version;
+                }
+            }
+        }
+    }
+
+    /// What following counted (nothing when the daemon follows no map).
+    #[cfg(feature = "zenoh")]
+    pub fn follow_stats(&self) -> crate::zenoh::FollowStats {
+        self.following
+            .as_ref()
+            .map(|f| f.stats())
+            .unwrap_or_default()
     }
 
     /// The line printed once the daemon serves (contains `ready`).
@@ -269,6 +331,8 @@ impl Daemon {
             .map(|m| {
                 let learning = if self.settings.learn.maps.contains(&m.name) {
                     format!(", learning, version {}", m.version)
+                } else if self.follows(&m.name) {
+                    format!(", following, version {}", m.version)
                 } else {
                     String::new()
                 };
@@ -286,6 +350,16 @@ impl Daemon {
             self.node.config().global.prefix,
             PROTOCOL_VERSION
         )
+    }
+
+    /// Whether the map `name` follows another daemon's.
+    fn follows(&self, name: &str) -> bool {
+        #[cfg(feature = "zenoh")]
+        if let Some(f) = &self.following {
+            return f.follows(&self.registry, name);
+        }
+        let _ = name;
+        false
     }
 
     /// Counters so far.

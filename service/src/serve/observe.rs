@@ -76,10 +76,11 @@ pub(super) fn observe(
     r
 }
 
-/// The client key of a remote observe request: the session id its client put in the
-/// header's `seed` ([`ObserveRequest`](cliff_client::ObserveRequest)), in keys of their own
-/// (the top bit set), apart from local clients' port ids.
+/// The client key of a remote observe request: its zenoh session (the querier's id, as
+/// the session's requests in flight are counted), in keys of their own (the top bit set),
+/// apart from local clients' port ids. Budgets, duplicates and the guards' shares hold
+/// per session, as per local client.
 #[cfg(feature = "zenoh")]
-pub(super) fn remote_client(h: &RequestHeader) -> ClientKey {
-    (1u128 << 127) | h.seed as u128
+pub(super) fn remote_client(session: u128) -> ClientKey {
+    (1u128 << 127) | session
 }

@@ -37,4 +37,7 @@ impl Output for Out {
 pub(super) struct Remote {
     pub(super) frontend: crate::zenoh::ZenohFrontend,
     pub(super) buffers: Vec<Vec<u32>>,
+    /// The maps' versions for followers, and the version published of each entry.
+    pub(super) maps: crate::zenoh::MapServer,
+    pub(super) published: Vec<u32>,
 }

@@ -50,6 +50,8 @@ impl Daemon {
                 if let Some(l) = self.learning.as_mut() {
                     l.housekeeping(&mut self.registry);
                 }
+                #[cfg(feature = "zenoh")]
+                self.zenoh_housekeeping();
                 if now >= next_cleanup {
                     self.cleanup_dead_nodes();
                     next_cleanup = now + self.settings.cleanup_interval;

@@ -7,7 +7,15 @@
 //! [`RemoteRequest::reply`] / [`RemoteRequest::reject`] answer it. Parts:
 //! `config.rs` (the zenoh configuration, the largest message, [`MemoryBound`]),
 //! `sessions.rs` (remote sessions and their requests in flight, [`Sessions`]),
-//! `priority.rs` (zenoh's threads run at a lower CPU priority than the serving loop).
+//! `priority.rs` (zenoh's threads run at a lower CPU priority than the serving loop),
+//! `maps.rs` (the maps' versions for daemons that follow them, [`MapServer`]),
+//! `follow.rs` (following another daemon's map, [`Following`]).
+//!
+//! Observations come on a key of their own, the service name followed by `/observe`
+//! ([`cliff_client::map_wire::observe_key_for`]), so that zenoh's access control can
+//! leave predictions open and close observations to the sessions allowed to teach the
+//! map; an observe request on the prediction key is answered
+//! [`Status::NotAllowed`], a prediction on the observe key [`Status::UnknownKind`].
 //! Threads:
 //!
 //! * zenoh's own (network, rx, tx): the queryable's callback counts the query for its
@@ -33,6 +41,8 @@
 //! largest allowed request needs.
 
 mod config;
+mod follow;
+mod maps;
 mod priority;
 mod sessions;
 
@@ -41,6 +51,7 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::mpsc::{Receiver, SyncSender, TryRecvError, TrySendError, sync_channel};
 
+use cliff_client::map_wire::observe_key_for;
 use cliff_client::protocol::{
     Field, Limits, Observation, PROTOCOL_VERSION, Rejection, RequestHeader, ResponseHeader, Status,
 };
@@ -56,6 +67,8 @@ pub use config::{
     MESSAGE_SLACK, MemoryBound, REFUSED_QUERY_BYTES, REFUSED_QUEUE, TRANSPORTS_PER_SESSION,
     default_max_message_bytes, max_request_bytes, max_response_bytes, max_rows, zenoh_config,
 };
+pub use follow::{DEFAULT_MAX_MAP_BYTES, FollowSettings, FollowSpec, FollowStats, Following};
+pub use maps::MapServer;
 pub use priority::{MAX_NICE, nice_of};
 pub use sessions::{ANONYMOUS, Admitted, Refusal, Sessions, forget_bytes, session_of};
 
@@ -168,6 +181,45 @@ impl RequestWaker {
     }
 }
 
+/// What the queryables' callbacks share (on zenoh's threads): a query is counted for its
+/// session and queued for the serving loop, or refused.
+struct Intake {
+    sessions: Arc<Sessions>,
+    tx: SyncSender<(Admitted, bool)>,
+    refusals: SyncSender<(Query, Vec<u8>)>,
+    counters: Arc<Counters>,
+    wake: Box<dyn Fn() + Send + Sync>,
+}
+
+impl Intake {
+    /// Take a query that came on the prediction key or (`observe`) the observe key.
+    fn take(&self, query: Query, observe: bool) {
+        match Admitted::new(query, &self.sessions) {
+            Ok(admitted) => match self.tx.try_send((admitted, observe)) {
+                Ok(()) => (self.wake)(),
+                // (the channel has room for every admitted request: only at shutdown;
+                // dropping it ends the query unanswered)
+                Err(TrySendError::Full(_) | TrySendError::Disconnected(_)) => {}
+            },
+            Err((query, why)) => {
+                let counter = match why {
+                    Refusal::Busy => &self.counters.busy,
+                    Refusal::TooManySessions => &self.counters.too_many_sessions,
+                };
+                counter.fetch_add(1, Ordering::Relaxed);
+                let refusal = refusal(query, why, &self.sessions);
+                // never block zenoh's thread: without room the query is dropped (its
+                // client sees no reply)
+                if self.refusals.try_send(refusal).is_err() {
+                    self.counters
+                        .dropped_replies
+                        .fetch_add(1, Ordering::Relaxed);
+                }
+            }
+        }
+    }
+}
+
 /// Counters of the frontend (shared with zenoh's threads).
 #[derive(Debug, Default)]
 struct Counters {
@@ -195,10 +247,10 @@ type Outgoing = (Admitted, Vec<u8>);
 /// The zenoh side of the daemon: a session and a queryable whose admitted requests wait
 /// in a bounded channel for [`try_next`](Self::try_next).
 pub struct ZenohFrontend {
-    rx: Receiver<Admitted>,
+    rx: Receiver<(Admitted, bool)>,
     replies: SyncSender<Outgoing>,
-    // the queryable before the session (drop order)
-    _queryable: Queryable<()>,
+    // the queryables (prediction key, observe key) before the session (drop order)
+    _queryables: [Queryable<()>; 2],
     session: zenoh::Session,
     sessions: Arc<Sessions>,
     max_rows: usize,
@@ -244,7 +296,7 @@ impl ZenohFrontend {
             .map_err(|e| bad(format!("zenoh key expression '{}': {e}", settings.key)))?;
         let in_flight = settings.max_in_flight();
         // room for every admitted request: neither channel is ever full for them
-        let (tx, rx) = sync_channel::<Admitted>(in_flight);
+        let (tx, rx) = sync_channel::<(Admitted, bool)>(in_flight);
         let (replies, reply_rx) = sync_channel::<Outgoing>(in_flight);
         let (refusals, refusal_rx) = sync_channel::<(Query, Vec<u8>)>(REFUSED_QUEUE);
         let counters = Arc::new(Counters::default());
@@ -270,42 +322,34 @@ impl ZenohFrontend {
         // zenoh's runtimes' threads start from a thread of lower priority (priority.rs)
         // and inherit it. The two reply threads above keep the daemon's: they only hand
         // encoded bytes to zenoh, and a refusal that waits too long is dropped.
+        let observe_key = zenoh::key_expr::KeyExpr::try_from(observe_key_for(&settings.key))
+            .map_err(|e| bad(format!("zenoh key expression of observations: {e}")))?;
+        let intake = Arc::new(Intake {
+            sessions: shared,
+            tx,
+            refusals,
+            counters: callback_counters,
+            wake: Box::new(wake),
+        });
+        let (for_predict, for_observe) = (intake.clone(), intake);
         let opened = priority::on_lowered_thread(settings.nice, move || {
             let session = zenoh::open(config)
                 .wait()
                 .map_err(|e| StartError::Zenoh(format!(
                     "cannot open the session: {e} (is the endpoint's port free? see docs/troubleshooting.md)"
                 )))?;
-            let queryable = session
-                .declare_queryable(key)
-                .callback(move |query: Query| match Admitted::new(query, &shared) {
-                    Ok(admitted) => match tx.try_send(admitted) {
-                        Ok(()) => wake(),
-                        // (the channel has room for every admitted request: only at
-                        // shutdown; dropping it ends the query unanswered)
-                        Err(TrySendError::Full(_) | TrySendError::Disconnected(_)) => {}
-                    },
-                    Err((query, why)) => {
-                        let counter = match why {
-                            Refusal::Busy => &callback_counters.busy,
-                            Refusal::TooManySessions => &callback_counters.too_many_sessions,
-                        };
-                        counter.fetch_add(1, Ordering::Relaxed);
-                        let refusal = refusal(query, why, &shared);
-                        // never block zenoh's thread: without room the query is dropped
-                        // (its client sees no reply)
-                        if refusals.try_send(refusal).is_err() {
-                            callback_counters
-                                .dropped_replies
-                                .fetch_add(1, Ordering::Relaxed);
-                        }
-                    }
-                })
-                .wait()
-                .map_err(|e| StartError::Zenoh(format!("cannot declare the queryable: {e}")))?;
-            Ok::<_, StartError>((session, queryable))
+            let declare = |key, intake: Arc<Intake>, observe| {
+                session
+                    .declare_queryable(key)
+                    .callback(move |query: Query| intake.take(query, observe))
+                    .wait()
+                    .map_err(|e| StartError::Zenoh(format!("cannot declare the queryable: {e}")))
+            };
+            let queryable = declare(key, for_predict, false)?;
+            let observe = declare(observe_key, for_observe, true)?;
+            Ok::<_, StartError>((session.clone(), [queryable, observe]))
         });
-        let (session, queryable) = opened.map_err(|e| {
+        let (session, queryables) = opened.map_err(|e| {
             StartError::Zenoh(format!(
                 "cannot start zenoh's threads at nice +{}: {e}",
                 settings.nice
@@ -324,7 +368,7 @@ impl ZenohFrontend {
         Ok(ZenohFrontend {
             rx,
             replies,
-            _queryable: queryable,
+            _queryables: queryables,
             session,
             sessions,
             max_rows: rows,
@@ -339,6 +383,16 @@ impl ZenohFrontend {
     /// `zenoh key 'cliff/predict' on tcp/127.0.0.1:7447`, for the ready line.
     pub fn description(&self) -> &str {
         &self.description
+    }
+
+    /// Answer map queries of daemons that follow this one's maps ([`MapServer`]),
+    /// starting with `maps` (name, version, set).
+    pub fn serve_maps(
+        &self,
+        service: &str,
+        maps: Vec<(String, u32, cliff::map::MapSet)>,
+    ) -> Result<MapServer, StartError> {
+        MapServer::start(&self.session, service, maps)
     }
 
     /// The zenoh session id (for logs).
@@ -373,7 +427,7 @@ impl ZenohFrontend {
     /// [`wire::encode_bad_version`]) and skipped. Never blocks.
     pub fn try_next(&mut self) -> Option<RemoteRequest<'_>> {
         loop {
-            let mut admitted = match self.rx.try_recv() {
+            let (mut admitted, observe_key) = match self.rx.try_recv() {
                 Ok(q) => q,
                 Err(TryRecvError::Empty | TryRecvError::Disconnected) => return None,
             };
@@ -389,6 +443,7 @@ impl ZenohFrontend {
                 Ok(header) => {
                     return Some(RemoteRequest {
                         admitted,
+                        observe_key,
                         header,
                         rows: &self.rows,
                         replies: &self.replies,
@@ -422,6 +477,7 @@ impl ZenohFrontend {
 /// [`reject`](Self::reject) (dropping it unanswered ends the query with no reply).
 pub struct RemoteRequest<'f> {
     admitted: Admitted,
+    observe_key: bool,
     header: RequestHeader,
     rows: &'f [Observation],
     replies: &'f SyncSender<Outgoing>,
@@ -437,6 +493,17 @@ impl RemoteRequest<'_> {
     /// The rows, as sent (validated by the caller).
     pub fn rows(&self) -> &[Observation] {
         self.rows
+    }
+
+    /// Whether the query came on the observe key ([`observe_key_for`]) rather than the
+    /// prediction key: only there are observations taken.
+    pub fn on_observe_key(&self) -> bool {
+        self.observe_key
+    }
+
+    /// The remote session the request counts for ([`session_of`]).
+    pub fn session(&self) -> u128 {
+        self.admitted.session()
     }
 
     /// Send the response `h` with `payload` (the words [`ResponseHeader::payload_words`]

@@ -136,6 +136,11 @@ impl Admitted {
         }
     }
 
+    /// The session the query counts for.
+    pub fn session(&self) -> u128 {
+        self.session
+    }
+
     /// The query.
     pub fn query(&self) -> &Query {
         self.query.as_ref().expect("held until dropped")
