@@ -245,12 +245,8 @@ fn occupancy(
 /// The reliability curves of one method: observed frequency against mean predicted
 /// probability, one line per horizon, over the diagonal of perfect calibration.
 pub fn reliability_chart(rows: &[CalibrationRow], method: Method) -> LineChart {
-    let mut lines = vec![Line {
-        label: "calibrated".into(),
-        points: vec![(0.0, 0.0), (1.0, 1.0)],
-        markers: false,
-        faint: true,
-    }];
+    let mut lines = Vec::new();
+    let mut largest = 0.1f64;
     for r in rows.iter().filter(|r| r.method == method) {
         let points: Vec<(f64, f64)> = r
             .bins
@@ -258,6 +254,7 @@ pub fn reliability_chart(rows: &[CalibrationRow], method: Method) -> LineChart {
             .filter(|b| b.cells >= 20)
             .map(|b| (b.mean_predicted(), b.observed()))
             .collect();
+        largest = points.iter().fold(largest, |m, p| m.max(p.0).max(p.1));
         lines.push(Line {
             label: format!("{:.0} s", r.horizon),
             points,
@@ -265,6 +262,17 @@ pub fn reliability_chart(rows: &[CalibrationRow], method: Method) -> LineChart {
             faint: false,
         });
     }
+    // the diagonal of perfect calibration, as far as the data goes
+    let end = (largest * 1.1).min(1.0);
+    lines.insert(
+        0,
+        Line {
+            label: "calibrated".into(),
+            points: vec![(0.0, 0.0), (end, end)],
+            markers: false,
+            faint: true,
+        },
+    );
     LineChart {
         title: format!("occupancy reliability: {}", method.name()),
         x_label: "predicted probability of the cell".into(),
