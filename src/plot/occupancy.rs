@@ -71,7 +71,10 @@ pub fn plot_occupancy(
             style.width
         )));
     }
-    if let Some(f) = style.full.filter(|f| !(f.is_finite() && *f > 0.0 && *f <= 1.0)) {
+    if let Some(f) = style
+        .full
+        .filter(|f| !(f.is_finite() && *f > 0.0 && *f <= 1.0))
+    {
         return Err(PlotError::Invalid(format!(
             "full colour at {f} is not a probability above 0"
         )));
