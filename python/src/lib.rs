@@ -14,6 +14,7 @@
 //! - `client.rs`: `Client` (and `Client.predict`), predictions from a running `cliffd`
 //! - `observe.rs`: `Client.observe`, observations for a `cliffd` that learns its map
 //! - `prediction.rs`: `Prediction`, the result of every `predict`
+//! - `occupancy.rs`: `Prediction.occupancy`, `occupancy_window` and `path_meets`
 //! - `evaluation.rs`: `evaluate` and its result `Evaluation`
 //!
 //! What those files share (they import these, and `Map`, `Prediction` or `Client` where
@@ -34,6 +35,7 @@ mod evaluation;
 mod histories;
 mod map;
 mod observe;
+mod occupancy;
 mod online;
 mod predict;
 mod predict_args;

@@ -85,6 +85,28 @@ impl Prediction {
     }
 }
 
+impl Prediction {
+    /// The positions array.
+    pub(crate) fn positions_array<'py>(&self, py: Python<'py>) -> &Bound<'py, PyArray4<f32>> {
+        self.positions.bind(py)
+    }
+
+    /// The lengths array.
+    pub(crate) fn lengths_array<'py>(&self, py: Python<'py>) -> &Bound<'py, PyArray2<i64>> {
+        self.lengths.bind(py)
+    }
+
+    /// `(agents, k, steps)`.
+    pub(crate) fn shape3(&self) -> (usize, usize, usize) {
+        self.shape
+    }
+
+    /// The step (s).
+    pub(crate) fn dt_value(&self) -> f64 {
+        self.dt
+    }
+}
+
 #[pymethods]
 impl Prediction {
     /// Number of people (the first dimension of positions).

@@ -1,4 +1,5 @@
-//! Evaluation: protocols, metrics and reports.
+//! Evaluation: protocols, metrics and reports, and whether occupancy is calibrated
+//! ([`calibration`]).
 //!
 //! ```no_run
 //! use cliff::eval::{evaluate, protocol::Settings, EvalConfig};
@@ -21,6 +22,7 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
+pub mod calibration;
 pub mod metrics;
 pub mod protocol;
 mod report;

@@ -151,6 +151,14 @@ pub fn normal_cdf(z: f64) -> f64 {
 /// The kernel's mass along one axis: for the cells `first..first + out.len()` whose
 /// edges lie at `origin + i * resolution`, the mass of a normal distribution of mean
 /// `mu` and standard deviation `sigma` over each cell.
+///
+/// Cells narrower than half a sigma take the density at the cell's centre times the
+/// cell's width, corrected by the series of the integral (`1 + d^2 (z^2 - 1) / 24 +
+/// d^4 (z^4 - 6 z^2 + 3) / 1920`, `d` the width in sigmas; what is left is below
+/// 1e-8 of the mass), the densities along the row by a product recurrence (two
+/// multiplications a cell, no exponential); wider cells take differences of the
+/// normal distribution function's table.
+#[inline(always)]
 pub(super) fn axis_mass(
     mu: f32,
     sigma: f32,
@@ -159,9 +167,33 @@ pub(super) fn axis_mass(
     first: usize,
     out: &mut [f32],
 ) {
+    let inv = 1.0 / sigma;
+    let d = resolution * inv;
+    if d <= 0.5 {
+        // z of the first cell's centre, in sigmas
+        let z0 = (origin + (first as f32 + 0.5) * resolution - mu) * inv;
+        let (d2, d4) = (d * d, d * d * d * d);
+        // phi(z0 + i d) = phi(z0) * prod q_j, q_0 = exp(-z0 d - d^2 / 2), q_{j+1} = q_j exp(-d^2)
+        let mut g = d
+            * (-0.5 * z0 * z0).exp()
+            * std::f32::consts::FRAC_1_SQRT_2
+            * 0.5
+            * std::f32::consts::FRAC_2_SQRT_PI;
+        let mut q = (-z0 * d - 0.5 * d2).exp();
+        let step = (-d2).exp();
+        let mut z = z0;
+        for m in out.iter_mut() {
+            let z2 = z * z;
+            let series = 1.0 + d2 * (z2 - 1.0) / 24.0 + d4 * (z2 * z2 - 6.0 * z2 + 3.0) / 1920.0;
+            *m = g * series;
+            g *= q;
+            q *= step;
+            z += d;
+        }
+        return;
+    }
     let table = phi_table();
     let scale = PHI_CELLS as f32 / (2.0 * PHI_RANGE);
-    let inv = 1.0 / sigma;
     let cdf = |edge: f32| -> f32 {
         let z = ((edge - mu) * inv).clamp(-PHI_RANGE, PHI_RANGE);
         let u = (z + PHI_RANGE) * scale;
@@ -218,20 +250,38 @@ mod tests {
 
     #[test]
     fn axis_masses_integrate_the_density_over_each_cell() {
-        let mut out = [0.0f32; 40];
-        axis_mass(0.37, 0.45, -2.0, 0.1, 0, &mut out);
-        for (i, m) in out.iter().enumerate() {
-            // midpoint rule over 1000 sub-intervals of the cell
-            let (a, b) = (-2.0 + i as f64 * 0.1, -2.0 + (i + 1) as f64 * 0.1);
-            let h = (b - a) / 1000.0;
-            let want: f64 = (0..1000)
-                .map(|j| {
-                    let x = a + (j as f64 + 0.5) * h;
-                    let z = (x - 0.37) / 0.45;
-                    (-0.5 * z * z).exp() / (0.45 * (2.0 * std::f64::consts::PI).sqrt()) * h
-                })
-                .sum();
-            assert!((*m as f64 - want).abs() < 2e-6, "cell {i}: {m} vs {want}");
+        // narrow cells (the series) and wide ones (the table)
+        for (mu, sigma, origin, res) in [
+            (0.37, 0.45, -2.0, 0.1),
+            (0.37, 0.3, -4.0, 0.25),
+            (1.1, 0.3, -5.0, 0.5),
+        ] {
+            let cells = (2.0 * -origin / res) as usize;
+            let mut out = vec![0.0f32; cells];
+            axis_mass(
+                mu as f32,
+                sigma as f32,
+                origin as f32,
+                res as f32,
+                0,
+                &mut out,
+            );
+            for (i, m) in out.iter().enumerate() {
+                // midpoint rule over 1000 sub-intervals of the cell
+                let (a, b) = (origin + i as f64 * res, origin + (i + 1) as f64 * res);
+                let h = (b - a) / 1000.0;
+                let want: f64 = (0..1000)
+                    .map(|j| {
+                        let x = a + (j as f64 + 0.5) * h;
+                        let z = (x - mu) / sigma;
+                        (-0.5 * z * z).exp() / (sigma * (2.0 * std::f64::consts::PI).sqrt()) * h
+                    })
+                    .sum();
+                assert!(
+                    (*m as f64 - want).abs() < 2e-6 + 1e-5 * want,
+                    "sigma {sigma} res {res} cell {i}: {m} vs {want}"
+                );
+            }
         }
     }
 

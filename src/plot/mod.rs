@@ -13,6 +13,8 @@
 //! * [`plot_curves`]: ADE and FDE against the prediction horizon per method and run,
 //!   with one-standard-deviation bands, read from `summary.csv` files
 //!   ([`read_summary`]).
+//! * [`plot_occupancy`]: the probability that a place holds someone at a few times
+//!   (one heat colour per time) over the map's faint arrows and the observed tracks.
 //! * [`plot_lines`]: labelled lines over two numeric axes (linear or logarithmic x),
 //!   for measured series such as `cliff-bench --compare`'s latency distributions.
 //!
@@ -41,6 +43,7 @@ mod diff;
 mod frame;
 mod lines;
 mod map;
+mod occupancy;
 mod predict;
 mod render;
 
@@ -55,6 +58,7 @@ pub use frame::{Extent, Frame, PixelRect};
 pub(crate) use frame::{clip_polyline, clip_segment};
 pub use lines::{Line, LineChart, plot_lines, plot_lines_to};
 pub use map::{MapStyle, plot_map, plot_map_to};
+pub use occupancy::{OCCUPANCY_COLOURS, OccupancyStyle, plot_occupancy};
 pub use predict::{PersonPrediction, PredictStyle, plot_predictions, plot_predictions_to};
 pub use render::{Floorplan, ImageFormat};
 

@@ -110,6 +110,30 @@ class Prediction:
     def map_version(self) -> int: ...
     def sample(self, agent: int, s: int) -> npt.NDArray[np.float32]: ...
     def best_sample(self, agent: int) -> Optional[int]: ...
+    def occupancy(
+        self,
+        grid: Union[Dict[str, Any], Tuple[float, float, float, int, int]],
+        times: Sequence[float],
+        person_radius: float = 0.3,
+        bandwidth_scale: float = 1.0,
+        stopped: str = "renormalise",
+    ) -> npt.NDArray[np.float32]: ...
+    def occupancy_window(
+        self,
+        grid: Union[Dict[str, Any], Tuple[float, float, float, int, int]],
+        start: float,
+        end: float,
+        person_radius: float = 0.3,
+        bandwidth_scale: float = 1.0,
+        stopped: str = "renormalise",
+    ) -> npt.NDArray[np.float32]: ...
+    def path_meets(
+        self,
+        plan: Sequence[Tuple[float, float, float]],
+        robot_radius: float,
+        person_radius: float = 0.3,
+        stopped: str = "renormalise",
+    ) -> npt.NDArray[np.float32]: ...
     def __len__(self) -> int: ...
 
 @final

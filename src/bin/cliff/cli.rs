@@ -16,6 +16,7 @@ use crate::motion::info::InfoArgs as MotionInfoArgs;
 use crate::observe::ObserveArgs;
 use crate::plot::curves::CurvesArgs;
 use crate::plot::map::MapArgs;
+use crate::plot::occupancy::OccupancyPlotArgs;
 use crate::plot::predict::PredictPlotArgs;
 use crate::predict::PredictArgs;
 
@@ -159,6 +160,15 @@ pub enum PlotCommand {
     ///   --tracks ../shared/data/thor1/exp-1-run-2.csv --format thor --person 3
     ///   --floorplan ../shared/data/thor1/floorplan.png --extent=-11,12,-10,13.5 --out p3.png
     Predict(PredictPlotArgs),
+    /// Draw the probability that each place holds someone at a few times: the people
+    /// present at one moment (--at) predicted together, the occupancy at each of
+    /// --times in its colour, over the map's arrows and the people's observed tracks.
+    ///
+    /// Example (THÖR1 over its floor plan):
+    /// cliff plot occupancy --map ../shared/data/thor1/cliffmap.csv
+    ///   --tracks ../shared/data/thor1/exp-1-run-2.csv --format thor --times 2,4,8
+    ///   --floorplan ../shared/data/thor1/floorplan.png --extent=-11,12,-10,13.5 --out occupancy.png
+    Occupancy(OccupancyPlotArgs),
     /// Draw ADE and FDE against the prediction horizon from `cliff eval` summaries,
     /// per method (and per run when several summaries are given), with
     /// one-standard-deviation bands.

@@ -6,10 +6,15 @@ use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result, bail};
 use clap::Args;
+use cliff::eval::calibration::{
+    CalibrationConfig, CalibrationRow, calibrate, calibration_csv, calibration_table,
+};
 use cliff::eval::metrics::Counting;
 use cliff::eval::protocol::Protocol;
 use cliff::eval::{EvalConfig, evaluate, summary_table, table_horizons, write_reports};
 use cliff::motion::MotionModel;
+use cliff::occupancy::Settings as OccupancySettings;
+use cliff::plot::{Line, LineChart, plot_lines};
 use cliff::predict::Method;
 use cliff::tracks::Format;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
@@ -66,9 +71,28 @@ pub struct EvalArgs {
     /// [default: the built-in model].
     #[arg(long, value_name = "FILE")]
     pub motion_model: Option<PathBuf>,
-    /// Output folder for summary.csv and per_person.csv.
+    /// Output folder for summary.csv and per_person.csv (with --occupancy:
+    /// calibration.csv and reliability-METHOD.png).
     #[arg(long)]
     pub out: Option<PathBuf>,
+    /// Check occupancy's calibration instead of the displacement errors: per method and
+    /// horizon, the reliability table of each person's predicted cells against where
+    /// they were, the Brier score and the log-likelihood (one seed).
+    #[arg(long)]
+    pub occupancy: bool,
+    /// With --occupancy: the cells' side (m).
+    #[arg(long, value_name = "M", default_value_t = 0.5)]
+    pub resolution: f64,
+    /// With --occupancy: the standard deviation of a person's body (m).
+    #[arg(long, value_name = "M", default_value_t = 0.3)]
+    pub person_radius: f64,
+    /// With --occupancy: the factor on Silverman's bandwidth.
+    #[arg(long, value_name = "FACTOR", default_value_t = 1.0)]
+    pub bandwidth_scale: f64,
+    /// With --occupancy: the horizons checked (s, comma-separated) [default: those of
+    /// the summary table].
+    #[arg(long, value_delimiter = ',', value_name = "S")]
+    pub horizons: Vec<f64>,
 }
 
 /// A progress bar that appears only once the run has taken more than a second.
@@ -132,6 +156,9 @@ pub fn run(a: EvalArgs) -> Result<()> {
         methods: a.methods.clone(),
         options: a.prediction.options(false),
     };
+    if a.occupancy {
+        return occupancy(&a, &maps, &tracks, cfg);
+    }
     let progress = LateProgress::new(tracks.len() as u64, "evaluating");
     let t0 = Instant::now();
     let report = evaluate(&maps, &tracks, &cfg, &|| progress.tick()).context("evaluation")?;
@@ -160,4 +187,100 @@ pub fn run(a: EvalArgs) -> Result<()> {
         );
     }
     Ok(())
+}
+
+/// `cliff eval --occupancy`: the calibration table, and with --out its CSV and pictures.
+fn occupancy(
+    a: &EvalArgs,
+    maps: &cliff::map::MapSet,
+    tracks: &[cliff::tracks::Track],
+    eval: EvalConfig,
+) -> Result<()> {
+    let horizons = if a.horizons.is_empty() {
+        table_horizons(eval.settings.horizon, eval.settings.dt)
+    } else {
+        a.horizons.clone()
+    };
+    if let Some(h) = horizons.iter().find(|h| !(h.is_finite() && **h > 0.0)) {
+        bail!("--horizons: {h} is not a positive number of seconds");
+    }
+    let cfg = CalibrationConfig {
+        eval,
+        occupancy: OccupancySettings {
+            person_radius: a.person_radius,
+            bandwidth_scale: a.bandwidth_scale,
+            ..OccupancySettings::default()
+        },
+        resolution: a.resolution,
+        horizons,
+    };
+    let progress = LateProgress::new(tracks.len() as u64, "checking occupancy");
+    let t0 = Instant::now();
+    let rows = calibrate(maps, tracks, &cfg, &|| progress.tick()).context("calibration")?;
+    progress.bar.finish_and_clear();
+    println!(
+        "occupancy calibration: {} m cells, person {} m, bandwidth x{} ({:.1} s)",
+        cfg.resolution,
+        cfg.occupancy.person_radius,
+        cfg.occupancy.bandwidth_scale,
+        t0.elapsed().as_secs_f64()
+    );
+    print!("{}", calibration_table(&rows));
+    if let Some(dir) = &a.out {
+        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+        let csv = dir.join("calibration.csv");
+        std::fs::write(&csv, calibration_csv(&rows))
+            .with_context(|| format!("writing {}", csv.display()))?;
+        println!("wrote {}", csv.display());
+        for &method in &cfg.eval.methods {
+            let path = dir.join(format!("reliability-{}.png", method.name()));
+            let chart = reliability_chart(&rows, method);
+            plot_lines(&chart, &path).with_context(|| format!("writing {}", path.display()))?;
+            println!("wrote {}", path.display());
+        }
+    }
+    Ok(())
+}
+
+/// The reliability curves of one method: observed frequency against mean predicted
+/// probability, one line per horizon, over the diagonal of perfect calibration.
+pub fn reliability_chart(rows: &[CalibrationRow], method: Method) -> LineChart {
+    let mut lines = Vec::new();
+    let mut largest = 0.1f64;
+    for r in rows.iter().filter(|r| r.method == method) {
+        let points: Vec<(f64, f64)> = r
+            .bins
+            .iter()
+            .filter(|b| b.cells >= 20)
+            .map(|b| (b.mean_predicted(), b.observed()))
+            .collect();
+        largest = points.iter().fold(largest, |m, p| m.max(p.0).max(p.1));
+        lines.push(Line {
+            label: format!("{:.0} s", r.horizon),
+            points,
+            markers: true,
+            faint: false,
+        });
+    }
+    // the diagonal of perfect calibration, as far as the data goes
+    let end = (largest * 1.1).min(1.0);
+    lines.insert(
+        0,
+        Line {
+            label: "calibrated".into(),
+            points: vec![(0.0, 0.0), (end, end)],
+            markers: false,
+            faint: true,
+        },
+    );
+    LineChart {
+        title: format!("occupancy reliability: {}", method.name()),
+        x_label: "predicted probability of the cell".into(),
+        y_label: "observed frequency".into(),
+        y_from_zero: true,
+        legend_upper_left: true,
+        size: (640, 560),
+        lines,
+        ..LineChart::default()
+    }
 }

@@ -16,8 +16,8 @@
 //! - `motion/fit.rs`, `motion/info.rs`: `cliff motion fit | info`
 //! - `map/info.rs`, `map/convert.rs`, `map/build.rs`, `map/score.rs`,
 //!   `map/update.rs`: `cliff map info | convert | build | score | update`
-//! - `plot/map.rs`, `plot/predict.rs`, `plot/curves.rs`:
-//!   `cliff plot map | predict | curves`
+//! - `plot/map.rs`, `plot/predict.rs`, `plot/occupancy.rs`, `plot/curves.rs`:
+//!   `cliff plot map | predict | occupancy | curves`
 //!
 //! What the commands share (a command imports these, never another command):
 //!
@@ -66,6 +66,7 @@ fn main() -> std::process::ExitCode {
         Command::Predict(a) => predict::run(a),
         Command::Plot(PlotCommand::Map(a)) => plot::map::run(a),
         Command::Plot(PlotCommand::Predict(a)) => plot::predict::run(a),
+        Command::Plot(PlotCommand::Occupancy(a)) => plot::occupancy::run(a),
         Command::Plot(PlotCommand::Curves(a)) => plot::curves::run(a),
         Command::Demo(a) => demo::run(a),
         Command::Observe(a) => observe::run(a),

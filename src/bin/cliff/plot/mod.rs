@@ -2,4 +2,5 @@
 
 pub mod curves;
 pub mod map;
+pub mod occupancy;
 pub mod predict;
