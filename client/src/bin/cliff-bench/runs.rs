@@ -118,8 +118,10 @@ pub(crate) fn run_way(
             })
         })
         .collect();
-    barrier.wait();
+    // the clock starts before the barrier lets the clients go: taken after it, a main
+    // thread descheduled at the barrier could start it after the clients finished
     let start = Instant::now();
+    barrier.wait();
     let results: Vec<ClientResult> = handles
         .into_iter()
         .map(|h| h.join().unwrap_or_default())
