@@ -158,6 +158,7 @@ if want predictor; then
     row predictor 'the options and time-of-day slices (criterion)' "$crit" \
         "cargo bench -j 1 --bench predict -- --warm-up-time 2 --measurement-time 4 'person_k20_(30|50)steps(_scores|_speed|_coast|_speed_scores|_all|_set_all_day|_set_slice)?\$'"
     row predictor 'constant velocity, THÖR1 person' "$crit" "cargo bench -j 1 --bench predict -- cvm_thor1_person"
+    row predictor 'occupancy: 30 people, k 20, 30 times onto 200 x 200 cells (criterion)' "$crit" "cargo bench -j 1 --bench occupancy"
     row predictor 'predict_batch, 1,000 ATC people, 1 and 2 threads' 'threads|^ +[0-9]' "cargo bench -j 1 --bench batch -- 10"
     row predictor 'predict_batch with improved' 'threads|^ +[0-9]' "cargo bench -j 1 --bench batch -- 5 improved"
     row predictor 'cliff eval on THÖR1, parity settings, 20 seeds' 'people evaluated' \
@@ -171,7 +172,7 @@ fi
 
 if want accuracy; then
     row accuracy "improved and the paper on atc/dev (held out)" '^\|' "python3 benches/beyond.py --only 1 --out $out/beyond"
-    row accuracy 'improved against constant velocity and the paper, every dataset' '' \
+    row accuracy 'improved against the motion model, constant velocity and the paper, every dataset' '' \
         "python3 benches/horizons.py --out $out/horizons"
 fi
 
@@ -241,9 +242,13 @@ if want zenoh; then
     row zenoh "a hostile remote client, zenoh at the daemon's priority" '' \
         "DAEMON_ARGS='--zenoh-nice 0' RUNS=2 SECONDS_PER_PHASE=15 benches/zenoh_hostile.sh"
     row zenoh 'a hostile remote client at nice 19' '' "HOSTILE_NICE=19 benches/zenoh_hostile.sh"
+    for i in 1 2 3; do
+        row zenoh "a site and a following robot on one host, run $i of 3" '' "SECONDS_PER_PHASE=5 benches/site_follow.sh"
+    done
     if [ "$(id -u)" = 0 ] || sudo -n true 2> /dev/null; then
         row zenoh 'round trips over zenoh (loopback, veth) next to iceoryx2' '' \
             "cargo build -q --release -j 1 -p cliff-service -p cliff-client --features cliff-service/zenoh,cliff-client/zenoh && sudo -n benches/zenoh_netns.sh 3 2000"
+        row zenoh 'a site and a robot on two hosts (network namespaces)' '' "sudo -n bash benches/site_netns.sh"
     else
         echo "zenoh: the veth row needs root (sudo benches/remeasure.sh zenoh): skipped" >&2
     fi
