@@ -273,6 +273,26 @@ pub(crate) fn draw_axes<DB: DrawingBackend>(
         .map_err(PlotError::draw)
 }
 
+/// The background of a picture over a map: its title, the world chart with its axes,
+/// and the map's arrows at `opacity` (0: none), each as long as the map's default style
+/// draws them.
+pub(crate) fn map_background<'a, DB: DrawingBackend>(
+    root: &'a DrawingArea<DB, Shift>,
+    title: &str,
+    frame: &Frame,
+    map: &CliffMap,
+    opacity: f64,
+) -> Result<WorldChart<'a, DB>, PlotError> {
+    draw_title(root, title)?;
+    let mut chart = world_chart(root, frame)?;
+    draw_axes(&mut chart)?;
+    if opacity > 0.0 {
+        let seconds = super::MapStyle::default().arrow_seconds_for(map);
+        draw_arrows(&chart, map, seconds, 0.0, opacity, frame)?;
+    }
+    Ok(chart)
+}
+
 /// One arrow per component: from the location along the mean direction, `rho *
 /// seconds` long, coloured by direction, as opaque as `opacity * weight`.
 pub(crate) fn draw_arrows<DB: DrawingBackend>(

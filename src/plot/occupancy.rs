@@ -9,7 +9,7 @@ use image::Rgb;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 
-use super::map::{draw_arrows, draw_axes, draw_title, world_chart};
+use super::map::map_background;
 use super::render::{Background, Painter, render};
 use super::{
     Extent, Floorplan, Frame, ImageFormat, OBSERVED, PlotError, clip_polyline, write_file,
@@ -162,20 +162,13 @@ struct OccupancyPainter<'a> {
 
 impl Painter for OccupancyPainter<'_> {
     fn paint<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Result<(), PlotError> {
-        draw_title(root, &self.title)?;
-        let mut chart = world_chart(root, &self.frame)?;
-        draw_axes(&mut chart)?;
-        if self.style.arrow_opacity > 0.0 {
-            let seconds = super::MapStyle::default().arrow_seconds_for(self.map);
-            draw_arrows(
-                &chart,
-                self.map,
-                seconds,
-                0.0,
-                self.style.arrow_opacity,
-                &self.frame,
-            )?;
-        }
+        let chart = map_background(
+            root,
+            &self.title,
+            &self.frame,
+            self.map,
+            self.style.arrow_opacity,
+        )?;
         let area = chart.plotting_area();
         let view = self.frame.extent;
         let err = PlotError::draw;

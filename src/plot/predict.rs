@@ -6,7 +6,7 @@ use glam::DVec2;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 
-use super::map::{draw_arrows, draw_axes, draw_title, map_extent, world_chart};
+use super::map::{map_background, map_extent};
 use super::render::{Background, Painter, render};
 use super::{
     Extent, Floorplan, Frame, ImageFormat, OBSERVED, PlotError, SAMPLE, TRUTH, clip_polyline,
@@ -260,20 +260,13 @@ impl Painter for PredictPainter<'_> {
                 }
             )
         });
-        draw_title(root, &title)?;
-        let mut chart = world_chart(root, &self.frame)?;
-        draw_axes(&mut chart)?;
-        if self.style.arrow_opacity > 0.0 {
-            let seconds = super::MapStyle::default().arrow_seconds_for(self.map);
-            draw_arrows(
-                &chart,
-                self.map,
-                seconds,
-                0.0,
-                self.style.arrow_opacity,
-                &self.frame,
-            )?;
-        }
+        let chart = map_background(
+            root,
+            &title,
+            &self.frame,
+            self.map,
+            self.style.arrow_opacity,
+        )?;
         let area = chart.plotting_area();
         let view = self.frame.extent;
         let err = PlotError::draw;
