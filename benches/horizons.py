@@ -39,6 +39,9 @@ import os
 import subprocess
 import sys
 
+# the map's rows, read, turned and written as the benchmark's table does them
+from tracklets import map_rows, turned, write_map
+
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 DATA = os.path.join(ROOT, "..", "shared", "data")
 
@@ -139,21 +142,6 @@ def worst_vs(rows, method, base="motion"):
     return worst
 
 
-def map_rows(path):
-    with open(path) as f:
-        return [[float(v) for v in row] for row in csv.reader(f) if row]
-
-
-def write_turned(src, dst, degrees=90.0):
-    """The CSV map `src` with every component's direction turned `degrees`."""
-    import math
-    with open(dst, "w", newline="") as f:
-        w = csv.writer(f)
-        for r in map_rows(src):
-            r[2] = (r[2] + math.radians(degrees)) % (2 * math.pi)
-            w.writerow([repr(v) for v in r])
-
-
 def reach(summary, method, h):
     with open(summary) as f:
         for r in csv.DictReader(f):
@@ -185,7 +173,7 @@ def main():
     for key in ("thor1", "thor3", "magni", "atc"):
         csv_map = maps[key] if maps[key].endswith(".csv") else maps[key][:-len(".cliff")] + ".csv"
         maps[key + " turned"] = os.path.join(a.out, f"{key}-turned90.csv")
-        write_turned(csv_map, maps[key + " turned"])
+        write_map(maps[key + " turned"], turned(map_rows(csv_map), 90.0))
     results = {}
     turned_results = {}
     for data in LONG:

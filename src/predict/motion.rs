@@ -128,7 +128,7 @@ const EVIDENCE_CLAMP: f64 = 2.0;
 
 /// Seconds over which the map's share grows from its evidence to the evidence's square
 /// root: `w(t) = e^max(exp(-t / SHARE_GROWTH), 1/2)`.
-pub(super) const SHARE_GROWTH: f64 = 5.0;
+const SHARE_GROWTH: f64 = 5.0;
 
 /// The map's evidence for this person (see the [module documentation](self)): the
 /// posterior probability that their observed moving steps come from the map's mixtures
@@ -167,7 +167,7 @@ pub(super) fn map_evidence(
 /// The map's share `t` seconds ahead given its `evidence`:
 /// `evidence^max(exp(-t / SHARE_GROWTH), 1/2)`.
 #[inline]
-pub(super) fn map_share(evidence: f64, t: f64) -> f64 {
+fn map_share(evidence: f64, t: f64) -> f64 {
     evidence.powf((-t / SHARE_GROWTH).exp().max(0.5))
 }
 
