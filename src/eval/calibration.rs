@@ -18,11 +18,11 @@ use std::fmt::Write as _;
 
 use rayon::prelude::*;
 
+use super::EvalConfig;
 use super::protocol::{Case, prepare_all};
-use super::{EvalConfig, person_seed};
 use crate::map::MapAt;
 use crate::occupancy::{GridSpec, Occupancy, Samples, Settings, person_density, spread};
-use crate::predict::{Method, Options, Params, PredictError, Rollout, TrajectoryBatch};
+use crate::predict::{Method, PredictError, TrajectoryBatch};
 use crate::tracks::Track;
 
 /// The edges of the reliability table's bins of predicted probability.
@@ -213,31 +213,7 @@ fn check_case<M: MapAt + ?Sized>(
     let history = case.history();
     let mut out = Vec::with_capacity(e.methods.len());
     for &method in &e.methods {
-        let params = Params {
-            method,
-            dt,
-            horizon: case.steps as f64 * dt,
-            seed: person_seed(0, case.seed_key()),
-            k: if method.is_deterministic() {
-                1
-            } else {
-                e.params.k
-            },
-            ..e.params
-        };
-        let mut rollout = Rollout::new(&params)?.with_options(Options {
-            scores: false,
-            ..e.options
-        })?;
-        if let Some(model) = &e.motion_model {
-            rollout = rollout.with_motion_model(model.clone());
-        }
-        rollout.predict_batch(
-            map,
-            std::slice::from_ref(&case.start),
-            Some(std::slice::from_ref(&history)),
-            batch,
-        )?;
+        e.predict_case(map, case, &history, method, 0, false, batch)?;
         let mut per_h = Vec::with_capacity(steps.len());
         for &j in steps {
             let truth = (j <= case.steps)

@@ -14,7 +14,7 @@ use rayon::prelude::*;
 use super::metrics::{Scratch, StepErrors, person_errors};
 use super::protocol::{Case, Settings, prepare_all};
 use crate::map::{CliffMap, MapAt};
-use crate::motion::MotionModel;
+use crate::motion::{History, MotionModel};
 use crate::predict::{Method, Options, Params, PredictError, Rollout, TrajectoryBatch};
 use crate::tracks::Track;
 
@@ -35,6 +35,54 @@ pub struct EvalConfig {
     pub options: Options,
     /// The motion model of [`Method::Motion`] (none: the built-in one).
     pub motion_model: Option<Arc<MotionModel>>,
+}
+
+impl EvalConfig {
+    /// Predict `case` (its start state and observed `history`) with `method` and seed
+    /// number `seed` into `batch`, as every evaluation does: the case's horizon, the
+    /// config's parameters, options and motion model, one sample for a deterministic
+    /// method; `scores` asks for the samples' scores. Returns the samples drawn.
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn predict_case(
+        &self,
+        map: &CliffMap,
+        case: &Case,
+        history: &History,
+        method: Method,
+        seed: u64,
+        scores: bool,
+        batch: &mut TrajectoryBatch,
+    ) -> Result<usize, PredictError> {
+        let dt = self.settings.dt;
+        let params = Params {
+            method,
+            dt,
+            horizon: case.steps as f64 * dt,
+            seed: person_seed(seed, case.seed_key()),
+            // constant velocity draws nothing: one sample stands for all k
+            k: if method.is_deterministic() {
+                1
+            } else {
+                self.params.k
+            },
+            ..self.params
+        };
+        let options = Options {
+            scores,
+            ..self.options
+        };
+        let mut rollout = Rollout::new(&params)?.with_options(options)?;
+        if let Some(model) = &self.motion_model {
+            rollout = rollout.with_motion_model(model.clone());
+        }
+        rollout.predict_batch(
+            map,
+            std::slice::from_ref(&case.start),
+            Some(std::slice::from_ref(history)),
+            batch,
+        )?;
+        Ok(params.k)
+    }
 }
 
 /// One row of the summary: a method at a horizon.
@@ -154,40 +202,15 @@ fn run_case(
     for &method in &cfg.methods {
         let mut per_seed = Vec::new();
         for seed in 0..seeds_for(method, cfg.seeds) {
-            let params = Params {
-                method,
-                dt,
-                horizon: case.steps as f64 * dt,
-                seed: person_seed(seed as u64, case.seed_key()),
-                // constant velocity draws nothing: one sample stands for all k
-                k: if method.is_deterministic() {
-                    1
-                } else {
-                    cfg.params.k
-                },
-                ..cfg.params
-            };
-            let options = Options {
-                scores: true,
-                ..cfg.options
-            };
-            let mut rollout = Rollout::new(&params)?.with_options(options)?;
-            if let Some(model) = &cfg.motion_model {
-                rollout = rollout.with_motion_model(model.clone());
-            }
-            rollout.predict_batch(
-                map,
-                std::slice::from_ref(&case.start),
-                Some(std::slice::from_ref(&history)),
-                &mut w.batch,
-            )?;
+            let k =
+                cfg.predict_case(map, case, &history, method, seed as u64, true, &mut w.batch)?;
             let batch = &w.batch;
             let mut out = Vec::new();
             person_errors(
                 case,
                 dt,
                 cfg.settings.counting,
-                (0..params.k).map(|s| batch.sample(0, s)),
+                (0..k).map(|s| batch.sample(0, s)),
                 batch.scores(),
                 &mut w.scratch,
                 &mut out,
