@@ -186,7 +186,21 @@ def parse_console(body: str) -> list[Command]:
 
 
 ALL_BLOCKS = [b for page in PAGES for b in parse_page(page)]
-RUN_BLOCKS = [b for b in ALL_BLOCKS if not b.skip and b.lang in RUN_LANGS | {"stop"}]
+
+
+def run_blocks(blocks: list[Block]) -> list[Block]:
+    """The blocks the harness runs; a `stop` marker before a block that is not run
+    (skipped, or of a language not run) still stops the page's background commands."""
+    run = []
+    for b in blocks:
+        if not b.skip and b.lang in RUN_LANGS | {"stop"}:
+            run.append(b)
+        elif b.stop_before:
+            run.append(Block(b.page, b.line, "stop", "", stop_before=True))
+    return run
+
+
+RUN_BLOCKS = run_blocks(ALL_BLOCKS)
 
 
 # ---------------------------------------------------------------- running
@@ -426,6 +440,18 @@ def test_skipped_blocks() -> None:
     for b in skipped:
         assert b.skip.strip(), f"{b.name}: a skip marker needs a reason"
         print(f"not run: {b.name}: {b.skip}")
+
+
+def test_stop_before_a_skipped_block_still_stops(tmp_path: Path) -> None:
+    """A `stop` marker followed by a skipped block stops the background commands before
+    the page's next run block (a daemon left running would answer the next example)."""
+    page = tmp_path / "page.md"
+    page.write_text("\n".join([
+        '<!-- example: background, ready "up" -->', "```sh", "serve", "```",
+        "<!-- example: stop -->", "", '<!-- example: skip "not here" -->', "```sh", "install", "```",
+        "```sh", "ask", "```", ""]), encoding="utf-8")
+    run = run_blocks(parse_page(page))
+    assert [(b.lang, b.stop_before) for b in run] == [("sh", False), ("stop", True), ("sh", False)]
 
 
 def github_anchor(heading: str) -> str:
