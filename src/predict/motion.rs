@@ -436,3 +436,133 @@ fn bend_samples(
         *len = steps as u32;
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::motion::MotionModel;
+
+    /// The bending one sample and one step at a time, as the module documentation
+    /// writes it: the sample's point moved by the blend's weight from the line onto the
+    /// model, or where it stopped, then `M + w(t) (S' - M)`; the first sample the mean.
+    fn one_at_a_time(
+        path: &MotionPath,
+        evidence: f64,
+        cv: (DVec2, DVec2),
+        (dt, blend, key): (f64, f64, u64),
+        tracks: &mut [Point],
+        lens: &mut [u32],
+    ) {
+        let steps = path.len();
+        for (s, (track, len)) in tracks
+            .chunks_exact_mut(steps)
+            .zip(lens.iter_mut())
+            .enumerate()
+        {
+            let z = sample_normal(key, s);
+            let reached = (*len as usize).min(steps);
+            let mut last = DVec2::ZERO;
+            for (j, out) in track.iter_mut().enumerate() {
+                let m = path.point(j, z);
+                let sample = if j < reached {
+                    let w = if blend > 0.0 {
+                        (-(j as f64) * dt / blend).exp()
+                    } else {
+                        0.0
+                    };
+                    let line = cv.0 + cv.1 * (j + 1) as f64;
+                    DVec2::new(out[0] as f64, out[1] as f64) + (m - line) * w
+                } else if j == 0 {
+                    m
+                } else {
+                    last
+                };
+                last = sample;
+                let t = (j + 1) as f64 * dt;
+                let share = evidence.powf((-t / SHARE_GROWTH).exp().max(0.5));
+                let p = m + (sample - m) * share;
+                *out = [p.x as f32, p.y as f32];
+            }
+            *len = steps as u32;
+        }
+        let k = lens.len();
+        for j in 0..steps {
+            let (mut x, mut y) = (0.0f64, 0.0f64);
+            for s in 0..k {
+                x += tracks[s * steps + j][0] as f64;
+                y += tracks[s * steps + j][1] as f64;
+            }
+            tracks[j] = [(x / k as f64) as f32, (y / k as f64) as f32];
+        }
+    }
+
+    #[test]
+    fn the_bending_gives_the_bits_of_one_sample_and_step_at_a_time_on_every_path() {
+        let walker = State {
+            position: DVec2::new(2.0, -1.0),
+            speed: 1.3,
+            heading: 0.4,
+            time: 0.0,
+        };
+        let forecast = MotionModel::builtin().forecast(&History::from_state(&walker));
+        let mut bend = Bend::default();
+        let mut state = 0x2545_f491_4f6c_dd1du64;
+        let mut next = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            state
+        };
+        // step lengths, horizons (past the model's 12 s), blends (none too), odd and even k
+        for (dt, steps, blend, k) in [(0.4, 30, 3.0, 20), (1.0, 50, 0.0, 7), (0.3, 11, 3.0, 1)] {
+            bend.path.fill(&forecast, dt, steps);
+            let cv = (
+                walker.position,
+                DVec2::from_angle(walker.heading) * (1.3 * dt),
+            );
+            for evidence in [0.0, 0.31, 0.5, 1.0] {
+                // samples stopped anywhere from before their first step to the horizon
+                let lens: Vec<u32> = (0..k)
+                    .map(|_| (next() % (steps as u64 + 1)) as u32)
+                    .collect();
+                let tracks: Vec<Point> = (0..k * steps)
+                    .map(|_| {
+                        [
+                            (next() % 4000) as f32 * 0.01 - 20.0,
+                            (next() % 3000) as f32 * 0.01,
+                        ]
+                    })
+                    .collect();
+                let key = next();
+                let (mut want, mut want_lens) = (tracks.clone(), lens.clone());
+                let times = (dt, blend, key);
+                one_at_a_time(&bend.path, evidence, cv, times, &mut want, &mut want_lens);
+                for simd in [Simd::Baseline, Simd::Avx2Fma]
+                    .into_iter()
+                    .filter(|s| s.available())
+                {
+                    let (mut got, mut got_lens) = (tracks.clone(), lens.clone());
+                    bend_to_motion(
+                        &mut bend,
+                        evidence,
+                        cv,
+                        dt,
+                        blend,
+                        key,
+                        &mut got,
+                        &mut got_lens,
+                        simd,
+                    );
+                    let bits =
+                        |t: &[Point]| t.iter().map(|p| p.map(f32::to_bits)).collect::<Vec<_>>();
+                    assert_eq!(
+                        bits(&got),
+                        bits(&want),
+                        "dt {dt} k {k} evidence {evidence} {simd:?}"
+                    );
+                    assert_eq!(got_lens, want_lens);
+                }
+            }
+        }
+    }
+}
