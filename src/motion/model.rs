@@ -258,8 +258,28 @@ impl Forecast<'_> {
     #[inline]
     pub fn position(&self, t: f64, z: DVec2) -> DVec2 {
         let s = (t / MODEL_DT).max(0.0);
-        let n = self.model.steps();
+        self.at_grid(s, s.floor() as usize, z)
+    }
+
+    /// The expected position `t` seconds ahead and the world frame's spread there: how
+    /// far the paths of `z = (1, 0)` and of `z = (0, 1)` are from it (as
+    /// [`position`](Self::position) gives them, the same bits).
+    #[inline]
+    pub fn frame(&self, t: f64) -> (DVec2, DVec2, DVec2) {
+        let s = (t / MODEL_DT).max(0.0);
         let i = s.floor() as usize;
+        let m = self.at_grid(s, i, DVec2::ZERO);
+        (
+            m,
+            self.at_grid(s, i, DVec2::X) - m,
+            self.at_grid(s, i, DVec2::Y) - m,
+        )
+    }
+
+    /// [`position`](Self::position) at `s` grid steps ahead (`i` its floor).
+    #[inline(always)]
+    fn at_grid(&self, s: f64, i: usize, z: DVec2) -> DVec2 {
+        let n = self.model.steps();
         let offset = if i >= n {
             let last = self.offset(n, z);
             let before = self.offset(n - 1, z);
@@ -273,7 +293,7 @@ impl Forecast<'_> {
     }
 
     /// The offset from the newest position at grid step `j` (0: none) on the path `z`.
-    #[inline]
+    #[inline(always)]
     fn offset(&self, j: usize, z: DVec2) -> DVec2 {
         if j == 0 {
             return DVec2::ZERO;
