@@ -18,6 +18,8 @@
 //! | `samples.rs` | [`Samples`], the view of a batch the calls read, and [`Stopped`] |
 //! | `kernel.rs` | [`Settings`] (the kernel's width and cut-off), the spread, the normal distribution function |
 //! | `layers.rs` | [`Occupancy`], the reusable buffer of layers, and the kernel loop of [`Occupancy::compute`] |
+//! | `levels.rs` | coarser grids for wide kernels: their layers and the interpolation onto the grid |
+//! | `tile.rs` | one person's box of cells as a dense buffer of rows eight cells wide, and a sample's kernel placed on it |
 //! | `window.rs` | [`Occupancy::window`]: the chance that anyone is in a cell between two times |
 //! | `path.rs` | [`path_meets`] and [`PlanPoint`]: the chance that a robot's timed path meets each person |
 //! | `density.rs` | [`person_density`]: one person's density at a point (for log-likelihoods) |
@@ -54,10 +56,12 @@ mod error;
 mod grid;
 mod kernel;
 mod layers;
+mod levels;
 mod path;
 mod samples;
 #[cfg(test)]
 mod tests;
+mod tile;
 mod window;
 
 pub use density::person_density;
