@@ -6,7 +6,7 @@ use std::ops::Range;
 use super::kernel::spread;
 use super::levels::{FACTORS, Levels};
 use super::samples::TimeIndex;
-use super::tile::{CellBox, Kernel, Tile, extent, reach_box};
+use super::tile::{CellBox, Kernel, Tile, extent, grow, reach_box};
 use super::{GridSpec, OccupancyError, Samples, Settings, Stopped};
 use crate::math::Simd;
 
@@ -320,9 +320,4 @@ fn fold_person_body(
     }
     sp.tile.fold_into(layer, grid.width);
     Some(area)
-}
-
-/// Make room for `n` elements (no allocation when there is).
-pub(super) fn grow<T>(v: &mut Vec<T>, n: usize) -> Result<(), std::collections::TryReserveError> {
-    v.try_reserve(n.saturating_sub(v.len()))
 }

@@ -17,8 +17,7 @@
 use std::collections::TryReserveError;
 
 use super::GridSpec;
-use super::layers::grow;
-use super::tile::CellBox;
+use super::tile::{CellBox, grow};
 use crate::math::Simd;
 
 /// How much larger each coarser grid's cells are.

@@ -17,6 +17,11 @@ fn lanes_for(n: usize) -> usize {
     n.div_ceil(LANES) * LANES
 }
 
+/// Make room for `n` elements (no allocation when there is).
+pub(super) fn grow<T>(v: &mut Vec<T>, n: usize) -> Result<(), TryReserveError> {
+    v.try_reserve(n.saturating_sub(v.len()))
+}
+
 /// A box of cells, rows and columns inclusive.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(super) struct CellBox {
@@ -82,8 +87,8 @@ pub(super) struct Kernel {
 impl Kernel {
     /// Room for any kernel on the grid (no allocation when there is).
     pub fn size_for(&mut self, grid: &GridSpec) -> Result<(), TryReserveError> {
-        super::layers::grow(&mut self.mx, lanes_for(grid.width) + LANES)?;
-        super::layers::grow(&mut self.my, lanes_for(grid.height))
+        grow(&mut self.mx, lanes_for(grid.width) + LANES)?;
+        grow(&mut self.my, lanes_for(grid.height))
     }
 
     /// The kernel of width `sigma` (cut at `reach`, m) of a sample at `p`, placed on a
@@ -145,7 +150,7 @@ impl Tile {
     /// Room for any box of the grid, all zero (no allocation when there is room).
     pub fn size_for(&mut self, grid: &GridSpec) -> Result<(), TryReserveError> {
         let n = (lanes_for(grid.width) + 2 * LANES) * grid.height;
-        super::layers::grow(&mut self.cells, n)?;
+        grow(&mut self.cells, n)?;
         self.cells.clear();
         self.cells.resize(n, 0.0);
         self.area = None;
