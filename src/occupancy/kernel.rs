@@ -20,6 +20,9 @@ use super::{OccupancyError, Stopped};
 /// probability mass over its area (the product of the normal distribution function's
 /// differences across its edges, so cells smaller or larger than a person are both
 /// exact); the kernel is cut at `truncate` sigmas, which bounds the cost of a sample.
+/// [`Occupancy::compute`](super::Occupancy::compute) adds a kernel 4 or more cells of
+/// sigma wide on a coarser grid and interpolates it onto the cells, within 1 % of the
+/// person's largest cell probability (`levels.rs`).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Settings {
     /// The standard deviation of a person's body about their track (m).

@@ -6,8 +6,9 @@
 //! A planner does not want twenty sampled paths per person; it wants to know how
 //! likely a place is to hold someone at a given time. Each person's samples at a time
 //! are smoothed by a normal kernel the size of a person widened by the samples' spread
-//! ([`Settings`]), a cell receives the kernel's probability mass over its area, and
-//! people are combined as independent: a cell is occupied with probability
+//! ([`Settings`]), a cell receives the kernel's probability mass over its area (for a
+//! kernel many cells wide, from a coarser grid: `levels.rs`), and people are combined
+//! as independent: a cell is occupied with probability
 //! `1 - prod_i (1 - p_i)`. Samples that stop before a time (method `cliff`, where the
 //! map has no data) are handled by [`Stopped`]: by default the person's probability is
 //! spread over the samples that reached the time.
