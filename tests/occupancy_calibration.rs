@@ -215,11 +215,11 @@ fn occupancy_is_calibrated_on_magni_tracklets() {
         // 706 tracklets; the paper's method reaches 4.8 s for 594 of them
         assert!(cliff.0 > 550 && improved.0 > 700 && motion.0 > 700, "{h} s");
         // measured (2026-12-05, seed 0): ECE cliff 0.014 to 0.026, improved 0.008 to
-        // 0.015, the motion model 0.000 to 0.013, constant velocity 0.038 to 0.070; the
+        // 0.017, the motion model 0.002 to 0.016, constant velocity 0.038 to 0.070; the
         // bounds leave about half as much again
         assert!(cliff.3 < 0.04, "cliff {h} s: ECE {}", cliff.3);
         assert!(improved.3 < 0.025, "improved {h} s: ECE {}", improved.3);
-        assert!(motion.3 < 0.02, "motion {h} s: ECE {}", motion.3);
+        assert!(motion.3 < 0.025, "motion {h} s: ECE {}", motion.3);
         // one path and a person-sized kernel: worse calibrated than every sampler,
         // and the least likely to have put density where the person was
         for (name, m) in [("cliff", cliff), ("improved", improved), ("motion", motion)] {
