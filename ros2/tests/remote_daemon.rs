@@ -2,9 +2,10 @@
 //! engine a node builds from its parameters (`daemon_zenoh`, `daemon_zenoh_config`,
 //! `observe`) against a cliffd process listening on loopback, fed THÖR1 round 2 as a
 //! tracker publishes it. Predictions are the in-process ones; the rows the node observes
-//! reach the remote map (the daemon's own count, and the version it learns); a node that
-//! access control keeps from teaching (docs/zenoh/cliffd-site.json5) gets `not-allowed`
-//! and keeps predicting.
+//! reach the remote map (the daemon's own count, and the version it learns); a node over
+//! its observe budget sends smaller requests and keeps predicting; a node that access
+//! control keeps from teaching (docs/zenoh/cliffd-site.json5) gets `not-allowed` and
+//! keeps predicting.
 //!
 //! The cliffd run is `target/release/cliffd` built with its feature `zenoh` (as
 //! `cargo test -p cliff-service -p cliff-ros2 --features cliff-service/zenoh,cliff-ros2/zenoh`
@@ -32,6 +33,7 @@ use cliff_ros2::settings::Parameters;
 const SERVICE: &str = "cliff/ros2-test";
 const PORT_OBSERVE: u16 = 27_491;
 const PORT_NOT_ALLOWED: u16 = 27_492;
+const PORT_OVER_BUDGET: u16 = 27_493;
 
 fn shared_data(rel: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -407,6 +409,57 @@ fn a_node_not_allowed_to_teach_gets_its_status_and_keeps_predicting() {
         "cliffd learned: rows taken, duplicates, learned"
     );
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn a_node_over_its_observe_budget_sends_less_at_once_and_keeps_predicting() {
+    let ep = format!("tcp/127.0.0.1:{PORT_OVER_BUDGET}");
+    let map = format!("thor1={}", shared_data("thor1/cliffmap.csv").display());
+    // 50 rows a second for this client; no version learned during the run, so the
+    // predictions stay the file's
+    let daemon = Daemon::start(
+        "budget",
+        &[
+            "--map",
+            &map,
+            "--learn",
+            "thor1",
+            "--learn-every-s",
+            "3600",
+            "--learn-every-rows",
+            "1000000",
+            "--observe-rate",
+            "50",
+            "--zenoh",
+            &ep,
+        ],
+    );
+    let mut remote = node::engine(&parameters(Some((&ep, None)), true)).unwrap();
+    let mut local = node::engine(&parameters(None, false)).unwrap();
+    let frames = frames();
+    // the tracker's messages (some 8,000 rows) far faster than they were recorded: over
+    // the budget
+    let cycles = run_beside(&mut remote, &mut local, &frames);
+    let s = remote.stats();
+    assert_eq!(
+        (s.predicted, s.unavailable, s.refused),
+        (cycles, 0, 0),
+        "{s:?}"
+    );
+    let observer = remote.observer().unwrap();
+    let o = observer.stats();
+    assert!(o.over_budget > 0 && o.rows > 0, "{o:?}");
+    assert_eq!((o.refused, o.failed), (0, 0), "{o:?}");
+    // requests hold at most half of what the budget lets through in a second
+    assert_eq!(observer.max_rows(), 25);
+    // what the node counts as taken is what the daemon took
+    drop(remote);
+    let closing = daemon.stop();
+    assert_eq!(
+        closing[..2],
+        [o.rows, o.duplicates],
+        "cliffd learned: rows taken, duplicates"
+    );
 }
 
 #[test]
