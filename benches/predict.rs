@@ -9,7 +9,9 @@
 //! * `cvm_thor1_person`: constant velocity on the THÖR1 person, for scale.
 //! * `motion_forecast_thor1_person`: the built-in motion model's forecast of the THÖR1
 //!   person from their observed path (the inference alone: features and 60 dot
-//!   products); `motion_thor1_person_k20_30steps`: the method `motion`, 20 samples of
+//!   products); `motion_forecast_thor1_person_network`: the same with a network of the
+//!   default size (64 units per layer) correcting the linear part;
+//!   `motion_thor1_person_k20_30steps`: the method `motion`, 20 samples of
 //!   30 steps from the observed path.
 //! * Options (suffixes): `_speed` the speed kernel (speed_beta 1); `_coast` coasting
 //!   (4 s) where the map has no data; `_scores` a score per sample
@@ -25,12 +27,15 @@
 
 use std::hint::black_box;
 
-use cliff::motion::MotionModel;
+use cliff::motion::network::INPUTS;
+use cliff::motion::{MotionModel, Network, NetworkFit};
 use cliff::predict::{
     Method, Options, Params, TrajectoryBatch, predict, predict_with, predict_with_histories,
 };
 use criterion::{Criterion, criterion_group, criterion_main};
 use glam::DVec2;
+use rand::{RngExt, SeedableRng};
+use rand_xoshiro::Xoshiro256PlusPlus;
 
 mod common;
 use common::{Person, atc_person, atc_set, thor1_person};
@@ -137,6 +142,35 @@ fn bench(c: &mut Criterion) {
     c.bench_function("motion_forecast_thor1_person", |b| {
         b.iter(|| {
             let f = model.forecast(black_box(&history));
+            black_box(f.position(4.8, DVec2::ZERO))
+        })
+    });
+    // a model with the largest network `cliff motion fit` makes by default (64 units per
+    // layer): the cost does not depend on the weights' values
+    let mut rng = Xoshiro256PlusPlus::seed_from_u64(0);
+    let hidden = NetworkFit::default().hidden;
+    let mut values =
+        |n: usize| -> Vec<f32> { (0..n).map(|_| rng.random_range(-0.1..0.1)).collect() };
+    let outputs = 2 * model.steps();
+    let network = Network {
+        hidden,
+        outputs,
+        mean: [0.0; INPUTS],
+        scale: [1.0; INPUTS],
+        w1: values(INPUTS * hidden),
+        b1: values(hidden),
+        w2: values(hidden * hidden),
+        b2: values(hidden),
+        w3: values(hidden * outputs),
+        b3: values(outputs),
+    };
+    let with_network = match std::env::var("CLIFF_BENCH_MOTION") {
+        Ok(path) => MotionModel::load(std::path::Path::new(&path)).unwrap(),
+        Err(_) => model.clone().with_network(network).unwrap(),
+    };
+    c.bench_function("motion_forecast_thor1_person_network", |b| {
+        b.iter(|| {
+            let f = with_network.forecast(black_box(&history));
             black_box(f.position(4.8, DVec2::ZERO))
         })
     });

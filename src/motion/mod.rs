@@ -7,6 +7,8 @@
 //! | [`history`] | [`History`]: a person's recent path on the motion model's grid |
 //! | [`model`] | [`MotionModel`] and its [`Forecast`]: how people walk on, learned from tracks |
 //! | [`model_fit`] | [`fit_motion_model`], [`motion_model_errors`]: fitting and scoring a model |
+//! | [`network`] | [`Network`]: the small network that corrects the linear part where walking is not linear |
+//! | `network_fit` | [`NetworkFit`]: training the network (Adam on the mean displacement error) |
 //! | [`model_file`] | `.motion` files ([`MotionModel::load`], [`MotionModel::save`]) |
 //! | `model_builtin` | the built-in model ([`MotionModel::builtin`]) |
 //!
@@ -39,15 +41,18 @@ pub mod model;
 mod model_builtin;
 pub mod model_file;
 pub mod model_fit;
+pub mod network;
+mod network_fit;
 pub mod speed_prior;
 pub use history::{HISTORY_POINTS, History, MODEL_DT};
 pub use model::{FEATURES, Forecast, MAX_MODEL_STEPS, ModelInfo, ModelValueError, MotionModel};
 pub use model_builtin::BUILTIN_MOTION_BYTES;
 pub use model_file::{MAX_MOTION_FILE_BYTES, MOTION_MAGIC, MOTION_VERSION, MotionError};
 pub use model_fit::{
-    FitError, HorizonErrors, MotionFit, fit_motion_model, fit_motion_model_sources,
-    motion_model_errors,
+    FitError, HorizonErrors, MAX_EPOCHS, MAX_NETWORK_WINDOWS, MotionFit, NetworkFit,
+    fit_motion_model, fit_motion_model_sources, motion_model_errors,
 };
+pub use network::{MAX_HIDDEN, Network};
 pub use speed_prior::{MAX_PRIOR_SPEED, SpeedPrior};
 
 /// The reference's velocity kernel width.

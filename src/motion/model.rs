@@ -5,15 +5,17 @@
 //! to its left), so it holds for any site and heading, and gives for every future step
 //! of its grid the expected displacement from the newest position (a regularised linear
 //! function of the seven observed displacements and a constant: ridge regression,
-//! [`fit`](super::fit_motion_model)) and its spread (the covariance of the fit's
-//! residuals at that step). A sample of the model draws one standard normal pair `z`
+//! [`fit`](super::fit_motion_model), optionally corrected by a small
+//! [`Network`](super::network::Network) where walking is not linear in the history) and
+//! its spread (the covariance of the fit's residuals at that step). A sample of the model draws one standard normal pair `z`
 //! and walks `mean_j + L_j z` (with `L_j` the Cholesky factor of step `j`'s spread), so
 //! a sample that starts to the left of the expected path stays to its left. Past the
 //! model's last step the path goes on at the velocity of its last step, and its spread
 //! grows as in its last step.
 //!
 //! Forecasting one person computes the features and `2 x steps` dot products of 15 terms
-//! into a [`Forecast`] on the stack: no allocation, well under a microsecond.
+//! (and the network's layers, when the model has one) into a [`Forecast`] on the stack:
+//! no allocation, under a microsecond.
 //!
 //! ```
 //! use cliff::motion::{History, MotionModel, State};
@@ -29,12 +31,16 @@
 use glam::DVec2;
 
 use super::history::{HISTORY_POINTS, History, MODEL_DT};
+use super::network::Network;
 
 /// Coefficients of one output: two per observed displacement and a constant.
 pub const FEATURES: usize = 2 * (HISTORY_POINTS - 1) + 1;
 
 /// Most grid steps a model may forecast (60 s at [`MODEL_DT`]).
 pub const MAX_MODEL_STEPS: usize = 150;
+
+const _: () = assert!(2 * MAX_MODEL_STEPS <= super::network::MAX_OUTPUTS);
+const _: () = assert!(FEATURES == super::network::INPUTS + 1);
 
 /// Largest absolute coefficient a model may hold (a file with larger ones is refused:
 /// no fit on walking people comes near it).
@@ -62,6 +68,8 @@ pub struct MotionModel {
     covariance: Vec<[f64; 3]>,
     /// Per grid step: its Cholesky factor `[l00, l10, l11]` (from `covariance`).
     factor: Vec<[f64; 3]>,
+    /// The network's corrections to the linear part, when the model has one.
+    network: Option<Network>,
     info: ModelInfo,
 }
 
@@ -144,8 +152,22 @@ impl MotionModel {
             weights,
             covariance,
             factor,
+            network: None,
             info,
         })
+    }
+
+    /// The model with `network` correcting its linear part (its shapes and values are
+    /// checked against the model's steps).
+    pub fn with_network(mut self, network: Network) -> Result<Self, ModelValueError> {
+        network.check(self.steps()).map_err(ModelValueError)?;
+        self.network = Some(network);
+        Ok(self)
+    }
+
+    /// The network correcting the linear part, if the model has one.
+    pub fn network(&self) -> Option<&Network> {
+        self.network.as_ref()
     }
 
     /// Grid steps the model forecasts ([`MODEL_DT`] each) before it goes on at its last
@@ -176,15 +198,30 @@ impl MotionModel {
         let (forward, features) = features(history);
         let left = forward.perp();
         let mut mean = [DVec2::ZERO; MAX_MODEL_STEPS];
-        for (m, w) in mean.iter_mut().zip(&self.weights) {
-            let (x, y) = (dot(&w[0], &features), dot(&w[1], &features));
-            *m = forward * x + left * y;
+        self.local_means(&features, &mut mean);
+        for m in mean.iter_mut().take(self.steps()) {
+            *m = forward * m.x + left * m.y;
         }
         Forecast {
             model: self,
             origin: history.last(),
             forward,
             mean,
+        }
+    }
+}
+
+impl MotionModel {
+    /// The expected displacement at every step in the walker's frame (forward, left)
+    /// for `features`, into `out[..steps]`: the linear part, plus the network's
+    /// corrections when the model has one.
+    #[inline]
+    pub(super) fn local_means(&self, features: &[f64; FEATURES], out: &mut [DVec2]) {
+        for (m, w) in out.iter_mut().zip(&self.weights) {
+            *m = DVec2::new(dot(&w[0], features), dot(&w[1], features));
+        }
+        if let Some(net) = &self.network {
+            net.add_to(features, out);
         }
     }
 }
@@ -221,8 +258,28 @@ impl Forecast<'_> {
     #[inline]
     pub fn position(&self, t: f64, z: DVec2) -> DVec2 {
         let s = (t / MODEL_DT).max(0.0);
-        let n = self.model.steps();
+        self.at_grid(s, s.floor() as usize, z)
+    }
+
+    /// The expected position `t` seconds ahead and the world frame's spread there: how
+    /// far the paths of `z = (1, 0)` and of `z = (0, 1)` are from it (as
+    /// [`position`](Self::position) gives them, the same bits).
+    #[inline]
+    pub fn frame(&self, t: f64) -> (DVec2, DVec2, DVec2) {
+        let s = (t / MODEL_DT).max(0.0);
         let i = s.floor() as usize;
+        let m = self.at_grid(s, i, DVec2::ZERO);
+        (
+            m,
+            self.at_grid(s, i, DVec2::X) - m,
+            self.at_grid(s, i, DVec2::Y) - m,
+        )
+    }
+
+    /// [`position`](Self::position) at `s` grid steps ahead (`i` its floor).
+    #[inline(always)]
+    fn at_grid(&self, s: f64, i: usize, z: DVec2) -> DVec2 {
+        let n = self.model.steps();
         let offset = if i >= n {
             let last = self.offset(n, z);
             let before = self.offset(n - 1, z);
@@ -236,7 +293,7 @@ impl Forecast<'_> {
     }
 
     /// The offset from the newest position at grid step `j` (0: none) on the path `z`.
-    #[inline]
+    #[inline(always)]
     fn offset(&self, j: usize, z: DVec2) -> DVec2 {
         if j == 0 {
             return DVec2::ZERO;

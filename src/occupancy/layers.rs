@@ -3,10 +3,21 @@
 
 use std::ops::Range;
 
-use super::kernel::{axis_box, axis_mass, spread};
+use super::kernel::spread;
+use super::levels::{FACTORS, Levels};
 use super::samples::TimeIndex;
+use super::tile::{CellBox, Kernel, Tile, extent, grow, reach_box};
 use super::{GridSpec, OccupancyError, Samples, Settings, Stopped};
 use crate::math::Simd;
+
+/// Where kernels are added up: one person's tile (and one sample's, for window
+/// occupancy) and a sample's kernel.
+#[derive(Debug, Clone, Default)]
+pub(super) struct Splat {
+    pub tile: Tile,
+    pub sample: Tile,
+    pub kernel: Kernel,
+}
 
 /// Occupancy over a grid: for each of a list of times (or for one time window, see
 /// [`window`](Self::window)) the probability that each cell holds at least one person,
@@ -26,49 +37,20 @@ pub struct Occupancy {
     pub(super) cells: Vec<f32>,
     pub(super) coverage: Vec<f32>,
     pub(super) scratch: Scratch,
+    /// Every person on the grid's own cells (no coarser grids): what tests compare
+    /// the coarser grids with.
+    pub(super) exact: bool,
 }
 
-/// Reused working space: one person's layer (zero between uses), one sample's layer
-/// (window occupancy), the kernel's axis factors, the samples at a time and where the
-/// times fall.
+/// Reused working space: the tiles and a sample's kernel, the coarser grids' layers,
+/// the samples at a time and where the times fall.
 #[derive(Debug, Clone, Default)]
 pub(super) struct Scratch {
-    pub person: Vec<f32>,
-    pub sample: Vec<f32>,
-    pub mx: Vec<f32>,
-    pub my: Vec<f32>,
+    pub splat: Splat,
+    pub levels: Levels,
     pub points: Vec<[f32; 2]>,
     pub index: Vec<TimeIndex>,
     pub sigmas: Vec<f32>,
-}
-
-/// A box of cells, rows and columns inclusive; empty when `r0 > r1`.
-#[derive(Debug, Clone, Copy)]
-pub(super) struct CellBox {
-    pub r0: usize,
-    pub r1: usize,
-    pub c0: usize,
-    pub c1: usize,
-}
-
-impl CellBox {
-    pub const EMPTY: CellBox = CellBox {
-        r0: usize::MAX,
-        r1: 0,
-        c0: usize::MAX,
-        c1: 0,
-    };
-
-    pub fn is_empty(&self) -> bool {
-        self.r0 > self.r1
-    }
-
-    pub fn join(&mut self, o: CellBox) {
-        self.r0 = self.r0.min(o.r0);
-        self.r1 = self.r1.max(o.r1);
-        self.c0 = self.c0.min(o.c0);
-        self.c1 = self.c1.max(o.c1);
-    }
 }
 
 impl Occupancy {
@@ -173,25 +155,30 @@ impl Occupancy {
         let too_large = || OccupancyError::TooLarge { layers, cells };
         let total = layers.checked_mul(cells).ok_or_else(too_large)?;
         grow(&mut self.cells, total).map_err(|_| too_large())?;
-        grow(&mut self.scratch.person, cells).map_err(|_| too_large())?;
+        self.scratch
+            .splat
+            .tile
+            .size_for(grid)
+            .map_err(|_| too_large())?;
+        self.scratch
+            .splat
+            .kernel
+            .size_for(grid)
+            .map_err(|_| too_large())?;
         let k = samples.shape().1;
         let (_, _, steps) = samples.shape();
         grow(&mut self.coverage, layers * agents).map_err(|_| too_large())?;
         grow(&mut self.scratch.points, k).map_err(|_| too_large())?;
         grow(&mut self.scratch.index, times.len().max(2 * steps + 3)).map_err(|_| too_large())?;
         grow(&mut self.scratch.sigmas, times.len().max(2 * steps + 3)).map_err(|_| too_large())?;
-        grow(&mut self.scratch.mx, grid.width).map_err(|_| too_large())?;
-        grow(&mut self.scratch.my, grid.height).map_err(|_| too_large())?;
         self.grid = Some(*grid);
         self.times.clear();
         grow(&mut self.times, times.len()).map_err(|_| too_large())?;
         self.times.clear();
         self.times.extend_from_slice(times);
         self.agents = agents;
-        self.cells.clear();
+        // (each layer is set to 1 before its people are folded in)
         self.cells.resize(total, 1.0);
-        self.scratch.person.clear();
-        self.scratch.person.resize(cells, 0.0);
         self.coverage.clear();
         self.coverage.resize(layers * agents, 0.0);
         Ok(())
@@ -206,6 +193,13 @@ impl Occupancy {
         agents: Range<usize>,
     ) -> Result<(), OccupancyError> {
         self.prepare(samples, grid, times, settings, times.len(), agents.len())?;
+        self.scratch
+            .levels
+            .size_for(grid)
+            .map_err(|_| OccupancyError::TooLarge {
+                layers: times.len(),
+                cells: grid.cells(),
+            })?;
         self.window = false;
         self.scratch.index.clear();
         for (i, &t) in times.iter().enumerate() {
@@ -217,6 +211,7 @@ impl Occupancy {
         for li in 0..times.len() {
             let ti = self.scratch.index[li];
             let layer = &mut self.cells[li * n..(li + 1) * n];
+            layer.fill(1.0);
             for (ai, a) in agents.clone().enumerate() {
                 let sc = &mut self.scratch;
                 sc.points.clear();
@@ -234,129 +229,95 @@ impl Occupancy {
                     Stopped::Renormalise => 1.0 / reached as f32,
                     Stopped::Drop | Stopped::Hold => 1.0 / k as f32,
                 };
-                let sigma = settings.sigma(spread(&sc.points), reached) as f32;
-                let bbox = splat_person(grid, settings, sc, w, sigma);
-                fold_person(layer, &mut sc.person, grid.width, bbox);
+                let sigma = settings.sigma(spread(&sc.points), reached);
+                let level = Levels::level_for(grid, sigma).filter(|_| !self.exact);
+                match level.and_then(|l| Some((l, sc.levels.level(l)?))) {
+                    Some((l, (coarse, layer))) => {
+                        // on the coarser grid: a cell there holds FACTORS[l]^2 cells
+                        let f = FACTORS[l] as f32;
+                        let (p, s) = (&sc.points, &mut sc.splat);
+                        let w = w / (f * f);
+                        let area = fold_person(&coarse, settings, p, s, w, sigma as f32, layer);
+                        if let Some(area) = area {
+                            sc.levels.touch(l, area);
+                        }
+                    }
+                    None => {
+                        let (p, s) = (&sc.points, &mut sc.splat);
+                        fold_person(grid, settings, p, s, w, sigma as f32, layer);
+                    }
+                }
             }
+            self.scratch.levels.fold_into(layer, grid);
+            // (the interpolation from coarser grids may leave a cell's chance of
+            // emptiness a rounding above 1)
             for v in layer.iter_mut() {
-                *v = 1.0 - *v;
+                *v = (1.0 - *v).max(0.0);
             }
         }
         Ok(())
     }
 }
 
-/// Add the kernels of the samples in `sc.points` (each weighing `w`, of width
-/// `sigma`) into `sc.person`; the box they cover. On AVX2 + FMA when the process runs
-/// on it ([`Simd::active`]): the same sums, eight cells at a time.
-fn splat_person(
+/// Fold one person into `layer` (on `grid`): the kernels of the samples at `points` (each
+/// weighing `w`, of width `sigma`) are added up on the person's tile, and each cell's
+/// chance of emptiness is multiplied by the person's chance of not being there. On
+/// AVX2 + FMA when the process runs on it ([`Simd::active`]): the same operations,
+/// eight cells at a time (no fused multiply-adds, so the bits are those of the
+/// baseline). The box of cells the person's kernels reach, if any.
+#[allow(clippy::too_many_arguments)]
+fn fold_person(
     grid: &GridSpec,
     settings: &Settings,
-    sc: &mut Scratch,
+    points: &[[f32; 2]],
+    sp: &mut Splat,
     w: f32,
     sigma: f32,
-) -> CellBox {
+    layer: &mut [f32],
+) -> Option<CellBox> {
     #[cfg(target_arch = "x86_64")]
     if Simd::active() == Simd::Avx2Fma {
         // SAFETY: the processor has AVX2 and FMA (`Simd::active` checked it)
-        return unsafe { splat_person_avx2(grid, settings, sc, w, sigma) };
+        return unsafe { fold_person_avx2(grid, settings, points, sp, w, sigma, layer) };
     }
-    splat_person_body(grid, settings, sc, w, sigma)
+    fold_person_body(grid, settings, points, sp, w, sigma, layer)
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
-unsafe fn splat_person_avx2(
+#[allow(clippy::too_many_arguments)]
+unsafe fn fold_person_avx2(
     grid: &GridSpec,
     settings: &Settings,
-    sc: &mut Scratch,
+    points: &[[f32; 2]],
+    sp: &mut Splat,
     w: f32,
     sigma: f32,
-) -> CellBox {
-    splat_person_body(grid, settings, sc, w, sigma)
+    layer: &mut [f32],
+) -> Option<CellBox> {
+    fold_person_body(grid, settings, points, sp, w, sigma, layer)
 }
 
 #[inline(always)]
-fn splat_person_body(
+#[allow(clippy::too_many_arguments)]
+fn fold_person_body(
     grid: &GridSpec,
     settings: &Settings,
-    sc: &mut Scratch,
+    points: &[[f32; 2]],
+    sp: &mut Splat,
     w: f32,
     sigma: f32,
-) -> CellBox {
-    let mut bbox = CellBox::EMPTY;
-    for i in 0..sc.points.len() {
-        let p = sc.points[i];
-        if let Some(b) = splat(grid, settings, p, sigma, &mut sc.mx, &mut sc.my) {
-            add_outer(&mut sc.person, grid.width, b, w, &sc.mx, &sc.my);
-            bbox.join(b);
-        }
-    }
-    bbox
-}
-
-/// Make room for `n` elements (no allocation when there is).
-pub(super) fn grow<T>(v: &mut Vec<T>, n: usize) -> Result<(), std::collections::TryReserveError> {
-    v.try_reserve(n.saturating_sub(v.len()))
-}
-
-/// The kernel of a sample at `p`: its box of cells on the grid and the axis masses of
-/// the box's columns (`mx[..cols]`) and rows (`my[..rows]`); `None` when it misses
-/// the grid.
-#[inline(always)]
-pub(super) fn splat(
-    grid: &GridSpec,
-    settings: &Settings,
-    p: [f32; 2],
-    sigma: f32,
-    mx: &mut Vec<f32>,
-    my: &mut Vec<f32>,
+    layer: &mut [f32],
 ) -> Option<CellBox> {
     let reach = settings.truncate as f32 * sigma;
-    let res = grid.resolution as f32;
-    let (ox, oy) = (grid.origin[0] as f32, grid.origin[1] as f32);
-    let (c0, c1) = axis_box(p[0], reach, ox, res, grid.width)?;
-    let (r0, r1) = axis_box(p[1], reach, oy, res, grid.height)?;
-    mx.clear();
-    mx.resize(c1 - c0 + 1, 0.0);
-    my.clear();
-    my.resize(r1 - r0 + 1, 0.0);
-    axis_mass(p[0], sigma, ox, res, c0, mx);
-    axis_mass(p[1], sigma, oy, res, r0, my);
-    Some(CellBox { r0, r1, c0, c1 })
-}
-
-/// Add `w` times the outer product of the row and column masses over the box.
-#[inline(always)]
-pub(super) fn add_outer(
-    person: &mut [f32],
-    width: usize,
-    b: CellBox,
-    w: f32,
-    mx: &[f32],
-    my: &[f32],
-) {
-    for (r, &fy) in (b.r0..=b.r1).zip(my) {
-        let wy = w * fy;
-        let row = &mut person[r * width + b.c0..=r * width + b.c1];
-        for (o, &fx) in row.iter_mut().zip(mx) {
-            *o += wy * fx;
+    let (lo, hi) = extent(points)?;
+    let area = reach_box(grid, lo, hi, reach)?;
+    sp.tile.cover(area);
+    for &p in points {
+        if sp.kernel.place(grid, p, sigma, reach, area) {
+            sp.tile.add(&sp.kernel, w);
         }
     }
-}
-
-/// Multiply the layer's chance of emptiness by the person's chance of not being in
-/// each cell of the box, and clear the person's layer there.
-#[inline]
-pub(super) fn fold_person(layer: &mut [f32], person: &mut [f32], width: usize, b: CellBox) {
-    if b.is_empty() {
-        return;
-    }
-    for r in b.r0..=b.r1 {
-        let span = r * width + b.c0..=r * width + b.c1;
-        for (e, p) in layer[span.clone()].iter_mut().zip(&mut person[span]) {
-            *e *= (1.0 - *p).max(0.0);
-            *p = 0.0;
-        }
-    }
+    sp.tile.fold_into(layer, grid.width);
+    Some(area)
 }

@@ -6,8 +6,9 @@
 //! A planner does not want twenty sampled paths per person; it wants to know how
 //! likely a place is to hold someone at a given time. Each person's samples at a time
 //! are smoothed by a normal kernel the size of a person widened by the samples' spread
-//! ([`Settings`]), a cell receives the kernel's probability mass over its area, and
-//! people are combined as independent: a cell is occupied with probability
+//! ([`Settings`]), a cell receives the kernel's probability mass over its area (for a
+//! kernel many cells wide, from a coarser grid: `levels.rs`), and people are combined
+//! as independent: a cell is occupied with probability
 //! `1 - prod_i (1 - p_i)`. Samples that stop before a time (method `cliff`, where the
 //! map has no data) are handled by [`Stopped`]: by default the person's probability is
 //! spread over the samples that reached the time.
@@ -18,6 +19,8 @@
 //! | `samples.rs` | [`Samples`], the view of a batch the calls read, and [`Stopped`] |
 //! | `kernel.rs` | [`Settings`] (the kernel's width and cut-off), the spread, the normal distribution function |
 //! | `layers.rs` | [`Occupancy`], the reusable buffer of layers, and the kernel loop of [`Occupancy::compute`] |
+//! | `levels.rs` | coarser grids for wide kernels: their layers and the interpolation onto the grid |
+//! | `tile.rs` | one person's box of cells as a dense buffer of rows eight cells wide, and a sample's kernel placed on it |
 //! | `window.rs` | [`Occupancy::window`]: the chance that anyone is in a cell between two times |
 //! | `path.rs` | [`path_meets`] and [`PlanPoint`]: the chance that a robot's timed path meets each person |
 //! | `density.rs` | [`person_density`]: one person's density at a point (for log-likelihoods) |
@@ -54,10 +57,12 @@ mod error;
 mod grid;
 mod kernel;
 mod layers;
+mod levels;
 mod path;
 mod samples;
 #[cfg(test)]
 mod tests;
+mod tile;
 mod window;
 
 pub use density::person_density;

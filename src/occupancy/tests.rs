@@ -232,6 +232,9 @@ fn the_density_integrates_to_the_cells_probabilities() {
     let grid = GridSpec::around([1.0, 1.0], [6.0, 6.0], 0.05);
     let set = Settings::default();
     let mut o = Occupancy::new();
+    // the kernel's own cells (its 7 cells of sigma would go on the coarser grid, whose
+    // own bound is checked below)
+    o.exact = true;
     o.compute_agent(&s, 0, &grid, &[0.4], &set).unwrap();
     let mut scratch = Vec::new();
     for (x, y) in [(1.0, 1.0), (0.5, 1.5), (2.0, 0.2)] {
@@ -261,4 +264,90 @@ fn times_between_zero_and_the_first_step_need_the_start() {
     let (r, c) = grid.cell_of(0.51, 0.01).unwrap();
     let (r0, c0) = grid.cell_of(0.01, 0.01).unwrap();
     assert!(o.at(1, r, c) > o.at(1, r0, c0 - 2) && o.at(0, r0, c0) > o.at(0, r, c + 2));
+}
+
+#[test]
+fn wide_kernels_on_coarser_grids_stay_close_to_the_exact_cells() {
+    use crate::map::CliffMap;
+    use crate::motion::State;
+    use crate::predict::{Params, TrajectoryBatch, predict};
+    use crate::tracks::{Format, read_tracks};
+    // THÖR1's walkers (the state of each track's ninth row), predicted 12 s on its map
+    let data = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/data/thor1");
+    let map = CliffMap::load(data.join("cliffmap.csv")).unwrap();
+    let tracks = read_tracks(&data.join("exp-1-run-2.csv"), Format::Thor).unwrap();
+    let people: Vec<State> = tracks
+        .iter()
+        .filter(|t| t.rows.len() > 30 && t.rows[8].speed > 0.3)
+        .map(|t| State {
+            position: t.rows[8].position,
+            speed: t.rows[8].speed,
+            heading: t.rows[8].angle,
+            time: 0.0,
+        })
+        .take(30)
+        .collect();
+    assert_eq!(people.len(), 30);
+    let params = Params {
+        k: 20,
+        dt: 0.4,
+        horizon: 12.0,
+        radius: 0.7071,
+        ..Params::default()
+    };
+    let mut batch = TrajectoryBatch::new();
+    predict(&map, &people, &params, &mut batch).unwrap();
+    let s = Samples::from_batch(&batch, params.dt).unwrap();
+    let n = people.len() as f64;
+    let centre = people.iter().fold([0.0, 0.0], |a, p| {
+        [a[0] + p.position.x / n, a[1] + p.position.y / n]
+    });
+    let grid = GridSpec::around(centre, [20.0, 20.0], 0.1);
+    let times: Vec<f64> = (1..=30).map(|j| j as f64 * 0.4).collect();
+    let set = Settings::default();
+    let (mut fast, mut exact) = (Occupancy::new(), Occupancy::new());
+    exact.exact = true;
+    let (mut coarse, mut worst, mut worst_mass) = (0, 0.0f32, 0.0f32);
+    for a in 0..people.len() {
+        fast.compute_agent(&s, a, &grid, &times, &set).unwrap();
+        exact.compute_agent(&s, a, &grid, &times, &set).unwrap();
+        for li in 0..times.len() {
+            let (f, e) = (fast.layer(li), exact.layer(li));
+            let peak = e.iter().fold(0.0f32, |m, &v| m.max(v));
+            let diff = f
+                .iter()
+                .zip(e)
+                .fold(0.0f32, |m, (x, y)| m.max((x - y).abs()));
+            if diff > 1e-4 * peak {
+                coarse += 1;
+            }
+            worst = worst.max(diff / peak.max(1e-12));
+            // the person's mass, where the grid holds nearly all of it
+            let (mf, me) = (f.iter().sum::<f32>(), e.iter().sum::<f32>());
+            if me > 0.99 {
+                worst_mass = worst_mass.max((mf - me).abs());
+            }
+        }
+    }
+    eprintln!(
+        "{coarse} person-times on coarser grids; largest difference {worst} of the peak, of the mass {worst_mass}"
+    );
+    // the coarser grids were used (a sigma of 0.4 m or more) ...
+    assert!(coarse > 100, "{coarse}");
+    // ... within 1 % of the person's largest cell probability, and the mass kept
+    // within 0.3 % (the kernel's cut at 3 sigmas falls on coarser cells' edges)
+    assert!(worst < 0.01, "{worst}");
+    assert!(worst_mass < 3e-3, "{worst_mass}");
+    // all people at once: within 1 % of the layer's largest probability
+    fast.compute(&s, &grid, &times, &set).unwrap();
+    exact.compute(&s, &grid, &times, &set).unwrap();
+    for (li, t) in times.iter().enumerate() {
+        let (f, e) = (fast.layer(li), exact.layer(li));
+        let peak = e.iter().fold(0.0f32, |m, &v| m.max(v));
+        let diff = f
+            .iter()
+            .zip(e)
+            .fold(0.0f32, |m, (x, y)| m.max((x - y).abs()));
+        assert!(diff < 0.01 * peak, "{t} s: {diff} of {peak}");
+    }
 }

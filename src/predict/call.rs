@@ -6,8 +6,8 @@ use super::candidates::{Candidates, rank};
 use super::cvm::{cvm_score, roll_cvm};
 use super::lanes::{ANY, Extras, Lane, Lanes, PAPER, SPEED};
 use super::motion::{
-    bend_to_motion, history_of, last_displacement, map_evidence, motion_path, motion_score,
-    roll_motion, sample_normal,
+    Bend, bend_to_motion, history_of, last_displacement, map_evidence, motion_score, roll_motion,
+    sample_normal,
 };
 use super::seeds::agent_key;
 use super::{BatchMut, Method, Params, Point};
@@ -89,10 +89,10 @@ impl Call<'_, '_> {
     pub(super) fn motion(mut self) {
         let steps = self.params.steps();
         let k = self.params.k;
-        let path = &mut self.scratch.motion_path;
+        let path = &mut self.scratch.bend.path;
         for (a, state) in self.agents.iter().enumerate() {
             let history = history_of(self.histories, a, state);
-            motion_path(&self.motion.forecast(&history), self.params.dt, steps, path);
+            path.fill(&self.motion.forecast(&history), self.params.dt, steps);
             let key = agent_key(self.seed, self.first_agent + a as u64);
             let tracks = &mut self.out.positions[a * k * steps..(a + 1) * k * steps];
             let lens = &mut self.out.lens[a * k..(a + 1) * k];
@@ -161,17 +161,13 @@ impl Call<'_, '_> {
             let agent_scores = scores.as_deref_mut().map(|s| &mut s[a * k..(a + 1) * k]);
             let key = agent_key(seed, first_agent + a as u64);
             // the samples bent towards the motion model (`motion.rs`)
-            let bend = |tracks: &mut [Point],
-                        lens: &mut [u32],
-                        path: &mut Vec<_>,
-                        shares: &mut Vec<[f64; 2]>| {
+            let bend = |tracks: &mut [Point], lens: &mut [u32], bend: &mut Bend| {
                 let observed = &agents[a];
                 let history = history_of(histories, a, observed);
-                motion_path(&motion.forecast(&history), params.dt, steps, path);
+                bend.path.fill(&motion.forecast(&history), params.dt, steps);
                 let step = DVec2::from_angle(observed.heading) * (observed.speed * params.dt);
                 bend_to_motion(
-                    path,
-                    shares,
+                    bend,
                     map_evidence(map, &near, &history),
                     (observed.position, step),
                     params.dt,
@@ -179,18 +175,14 @@ impl Call<'_, '_> {
                     key,
                     tracks,
                     lens,
+                    extras.simd,
                 );
             };
             if c == 1 {
                 let agent_scores = agent_scores.unwrap_or(&mut []);
                 lanes.roll_agent::<MOTION, SCORES>(key, tracks, lens, agent_scores);
                 if extras.motion {
-                    bend(
-                        tracks,
-                        lens,
-                        &mut scratch.motion_path,
-                        &mut scratch.motion_shares,
-                    );
+                    bend(tracks, lens, &mut scratch.bend);
                 }
                 if extras.consensus && !agent_scores.is_empty() {
                     consensus(tracks, lens, agent_scores, &mut scratch.centre, extras.simd);
@@ -224,12 +216,7 @@ impl Call<'_, '_> {
                 lens[s] = scratch.lens[i];
             }
             if extras.motion {
-                bend(
-                    tracks,
-                    lens,
-                    &mut scratch.motion_path,
-                    &mut scratch.motion_shares,
-                );
+                bend(tracks, lens, &mut scratch.bend);
             }
             if let Some(out_scores) = agent_scores {
                 if extras.consensus {

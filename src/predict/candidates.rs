@@ -5,6 +5,7 @@
 use super::Point;
 use super::flow_memo::FlowMemo;
 use super::lanes::Lane;
+use super::motion::Bend;
 
 /// The drawn candidates of one agent before the best `k` are kept.
 #[derive(Debug, Clone, Default)]
@@ -25,13 +26,9 @@ pub(super) struct Candidates {
     pub(super) flow: FlowMemo,
     /// The order of the flow walks at a checkpoint (scratch).
     pub(super) walk_order: Vec<u64>,
-    /// The motion model's path at each step of a call: its mean (x, y) and the world
-    /// frame's spread factor (`[a, b, c, d]`: `z` moves it by `(a z0 + b z1, c z0 +
-    /// d z1)`) (`Options::motion`).
-    pub(super) motion_path: Vec<([f64; 2], [f64; 4])>,
-    /// The map's share of a bent sample and the blend's weight at each step of a call
+    /// The buffers of the samples' bending towards the motion model
     /// (`Options::motion`).
-    pub(super) motion_shares: Vec<[f64; 2]>,
+    pub(super) bend: Bend,
 }
 
 thread_local! {

@@ -16,7 +16,7 @@
 //! sample's), `S'` the map's sample with the blend ([`Options::blend`](super::Options::blend))
 //! leaving `M` instead of constant velocity's line, standing where it stopped from the
 //! step where the map stopped it (the map saw no one walk on from there); `w(t)` is the
-//! map's share ([`map_share`]):
+//! map's share ([`bend_to_motion`]):
 //!
 //! * the map's **evidence** for this person, `e`: the posterior odds that their observed
 //!   moving steps (0.4 s steps over 0.2 m/s) came from the map's mixture at each step's
@@ -36,12 +36,18 @@
 //! expected position at each step), the best-ranked under the consensus ranking; the
 //! normal pairs come in antithetic pairs (sample `2 i` draws `-z` of sample `2 i - 1`), so
 //! with no map the mean path is the motion model's expected path.
+//!
+//! The share's exponents and the blend's weights depend on the steps alone: they are
+//! computed once and kept for the following calls with the same steps ([`Bend`]), and
+//! the evidence is raised to each exponent once. The bending runs over the steps in columns (four steps to
+//! an instruction on AVX2), with the same bits on both instruction paths.
 
 use glam::DVec2;
 
 use super::Point;
 use super::options::NO_LOCATION_LOG_DENSITY;
 use crate::map::CliffMap;
+use crate::math::Simd;
 use crate::math::lane_rng::{LaneRngs, lane_seed, normal_f32_with};
 use crate::math::simd::Separate;
 use crate::motion::{Forecast, History, MODEL_DT, State};
@@ -73,24 +79,54 @@ pub(super) fn history_of(histories: Option<&[History]>, a: usize, state: &State)
 }
 
 /// The motion model's path of one agent at the call's steps, computed once per agent
-/// ([`motion_path`]): the mean and the world frame's spread factor at each step.
-pub(super) type MotionPath = [([f64; 2], [f64; 4])];
+/// ([`MotionPath::fill`]): at each step the mean (x, y) and the world frame's spread
+/// factor (`a, b, c, d`: the normal pair `z` moves the mean by `(a z0 + b z1, c z0 +
+/// d z1)`), one column per value.
+#[derive(Debug, Clone, Default)]
+pub(super) struct MotionPath {
+    mean: [Vec<f64>; 2],
+    spread: [Vec<f64>; 4],
+}
 
-/// The position at step `j` of `path` on the normal pair `z`.
-#[inline]
-pub(super) fn path_point(path: &MotionPath, j: usize, z: DVec2) -> DVec2 {
-    let (m, f) = path[j];
-    DVec2::new(
-        m[0] + f[0] * z.x + f[1] * z.y,
-        m[1] + f[2] * z.x + f[3] * z.y,
-    )
+impl MotionPath {
+    /// The path of `forecast` at `steps` steps of `dt` seconds.
+    pub(super) fn fill(&mut self, forecast: &Forecast<'_>, dt: f64, steps: usize) {
+        for c in self.mean.iter_mut().chain(&mut self.spread) {
+            c.clear();
+        }
+        for j in 0..steps {
+            let (m, a, b) = forecast.frame((j + 1) as f64 * dt);
+            for (c, v) in self.mean.iter_mut().zip([m.x, m.y]) {
+                c.push(v);
+            }
+            for (c, v) in self.spread.iter_mut().zip([a.x, b.x, a.y, b.y]) {
+                c.push(v);
+            }
+        }
+    }
+
+    /// Its steps.
+    #[inline]
+    pub(super) fn len(&self) -> usize {
+        self.mean[0].len()
+    }
+
+    /// The position at step `j` on the normal pair `z`.
+    #[inline]
+    pub(super) fn point(&self, j: usize, z: DVec2) -> DVec2 {
+        let ([mx, my], [a, b, c, d]) = (&self.mean, &self.spread);
+        DVec2::new(
+            mx[j] + a[j] * z.x + b[j] * z.y,
+            my[j] + c[j] * z.x + d[j] * z.y,
+        )
+    }
 }
 
 /// Write the positions of `path` on the normal pair `z` into `track`.
 #[inline]
 pub(super) fn roll_motion(path: &MotionPath, z: DVec2, track: &mut [Point]) {
     for (j, out) in track.iter_mut().enumerate() {
-        let p = path_point(path, j, z);
+        let p = path.point(j, z);
         *out = [p.x as f32, p.y as f32];
     }
 }
@@ -164,42 +200,67 @@ pub(super) fn map_evidence(
     1.0 / (1.0 + (-log_odds).exp())
 }
 
-/// The map's share `t` seconds ahead given its `evidence`:
-/// `evidence^max(exp(-t / SHARE_GROWTH), 1/2)`.
-#[inline]
-fn map_share(evidence: f64, t: f64) -> f64 {
-    evidence.powf((-t / SHARE_GROWTH).exp().max(0.5))
+/// The buffers of [`bend_to_motion`], grown once and reused from call to call.
+#[derive(Debug, Clone, Default)]
+pub(super) struct Bend {
+    /// The motion model's path at each step of the call.
+    pub(super) path: MotionPath,
+    /// Per step: the exponent of the map's share (`max(exp(-t / SHARE_GROWTH), 1/2)`)
+    /// and the blend's weight on the line, for the steps, step length and blend of
+    /// `times_of` (the same for every agent of every call that has them).
+    times: Vec<[f64; 2]>,
+    times_of: Option<(usize, u64, u64)>,
+    /// Per step of the agent being bent: the map's share, the blend's weight, and the
+    /// constant-velocity line's point (x, y), one column each.
+    at: [Vec<f64>; 4],
+    /// The samples' normal pairs.
+    normals: Vec<DVec2>,
+    /// Per step: the sums of the bent samples' x and y.
+    sums: Vec<[f64; 2]>,
 }
 
-/// The motion model's path at the call's steps into `path` (mean, and the world frame's
-/// spread factor).
-pub(super) fn motion_path(
-    forecast: &Forecast<'_>,
-    dt: f64,
-    steps: usize,
-    path: &mut Vec<([f64; 2], [f64; 4])>,
-) {
-    path.clear();
-    for j in 0..steps {
-        let t = (j + 1) as f64 * dt;
-        let m = forecast.position(t, DVec2::ZERO);
-        let a = forecast.position(t, DVec2::X) - m;
-        let b = forecast.position(t, DVec2::Y) - m;
-        path.push(([m.x, m.y], [a.x, b.x, a.y, b.y]));
+/// The normal pairs of the first `k` samples of the agent keyed `key` ([`sample_normal`]
+/// of each) into `out`.
+fn sample_normals(key: u64, k: usize, out: &mut Vec<DVec2>) {
+    out.clear();
+    out.push(DVec2::ZERO);
+    // the odd samples draw, eight generators side by side; the even ones are their
+    // antithetic pairs
+    const W: usize = 8;
+    let drawn = k / 2;
+    let mut first = 0;
+    while out.len() < k {
+        let n = (drawn - first).min(W);
+        let mut rng = LaneRngs::<W>::zero();
+        for l in 0..W {
+            // (lanes past the last draw repeat it)
+            rng.set(l, lane_seed(key, (2 * (first + l.min(n - 1)) + 1) as u64));
+        }
+        let (wa, wb) = (rng.next(), rng.next());
+        let (mut a, mut b) = ([0.0f32; W], [0.0f32; W]);
+        for l in 0..W {
+            a[l] = normal_f32_with::<Separate>(wa[l]);
+            b[l] = normal_f32_with::<Separate>(wb[l]);
+        }
+        for l in 0..n {
+            let z = DVec2::new(a[l] as f64, b[l] as f64);
+            out.push(z);
+            out.push(-z);
+        }
+        first += n;
     }
+    out.truncate(k);
 }
 
 /// Bend one agent's samples (`tracks`, `lens`: `k` samples of `steps`) towards the
-/// motion model (see the [module documentation](self)), then make the first sample their
-/// mean path: every sample then reaches the horizon. `evidence` is the map's
-/// ([`map_evidence`]), `shares` a buffer for the map's share and the blend's weight at
-/// each step, `cv` the
-/// constant-velocity line the blend left (its start, its step), `blend` the blend's
-/// seconds (0: none), `key` the agent's key.
+/// motion model's path `bend.path` (see the [module documentation](self)), then make the
+/// first sample their mean path: every sample then reaches the horizon. `evidence` is
+/// the map's ([`map_evidence`]), `cv` the constant-velocity line the blend left (its
+/// start, its step), `blend` the blend's seconds (0: none), `key` the agent's key. The
+/// same bits on every path (`simd` only lets the compiler use wider registers).
 #[allow(clippy::too_many_arguments)]
 pub(super) fn bend_to_motion(
-    path: &MotionPath,
-    shares: &mut Vec<[f64; 2]>,
+    bend: &mut Bend,
     evidence: f64,
     cv: (DVec2, DVec2),
     dt: f64,
@@ -207,57 +268,301 @@ pub(super) fn bend_to_motion(
     key: u64,
     tracks: &mut [Point],
     lens: &mut [u32],
+    simd: Simd,
 ) {
-    let steps = path.len();
+    let steps = bend.path.len();
     if steps == 0 || lens.is_empty() {
         return;
     }
-    shares.clear();
-    shares.extend((0..steps).map(|j| {
-        // the blend's weight on the line at this step (0: no blend)
-        let w = if blend > 0.0 {
-            (-(j as f64) * dt / blend).exp()
-        } else {
-            0.0
-        };
-        [map_share(evidence, (j + 1) as f64 * dt), w]
-    }));
-    for (s, (track, len)) in tracks
+    // the exponents of the share and the blend's weights: the same for every agent
+    let times_of = Some((steps, dt.to_bits(), blend.to_bits()));
+    if bend.times_of != times_of {
+        bend.times.clear();
+        bend.times.extend((0..steps).map(|j| {
+            let t = (j + 1) as f64 * dt;
+            // the blend's weight on the line at this step (0: no blend)
+            let w = if blend > 0.0 {
+                (-(j as f64) * dt / blend).exp()
+            } else {
+                0.0
+            };
+            [(-t / SHARE_GROWTH).exp().max(0.5), w]
+        }));
+        bend.times_of = times_of;
+    }
+    // the map's share at each step, `evidence^exponent` (one power per exponent: from
+    // about 3.5 s on the exponent is 1/2 at every step)
+    let mut last = (f64::NAN.to_bits(), 0.0);
+    for c in &mut bend.at {
+        c.clear();
+    }
+    for (j, &[e, w]) in bend.times.iter().enumerate() {
+        if e.to_bits() != last.0 {
+            last = (e.to_bits(), evidence.powf(e));
+        }
+        let line = cv.0 + cv.1 * (j + 1) as f64;
+        for (c, v) in bend.at.iter_mut().zip([last.1, w, line.x, line.y]) {
+            c.push(v);
+        }
+    }
+    sample_normals(key, lens.len(), &mut bend.normals);
+    bend.sums.clear();
+    bend.sums.resize(steps, [0.0; 2]);
+    let Bend {
+        path,
+        at,
+        normals,
+        sums,
+        ..
+    } = bend;
+    match simd {
+        #[cfg(target_arch = "x86_64")]
+        // SAFETY: a rollout's path is one the processor has.
+        Simd::Avx2Fma => unsafe { bend_samples_avx2(path, at, normals, tracks, lens, sums) },
+        _ => bend_samples(path, at, normals, tracks, lens, sums),
+    }
+    // the first sample: the samples' mean path
+    let k = lens.len() as f64;
+    for (out, [x, y]) in tracks.iter_mut().zip(sums.iter()) {
+        *out = [(x / k) as f32, (y / k) as f32];
+    }
+}
+
+/// [`bend_samples`] compiled for AVX2 (the same bits: no multiply-add is fused).
+///
+/// # Safety
+/// The processor must have AVX2 and FMA.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+unsafe fn bend_samples_avx2(
+    path: &MotionPath,
+    at: &[Vec<f64>; 4],
+    normals: &[DVec2],
+    tracks: &mut [Point],
+    lens: &mut [u32],
+    sums: &mut [[f64; 2]],
+) {
+    bend_samples(path, at, normals, tracks, lens, sums)
+}
+
+/// Bend each sample (`at`: the share, the blend's weight and the line's point at each
+/// step; `normals`: each sample's normal pair), every sample to the horizon, adding its
+/// bent positions (as written) to `sums`.
+#[inline(always)]
+fn bend_samples(
+    path: &MotionPath,
+    at: &[Vec<f64>; 4],
+    normals: &[DVec2],
+    tracks: &mut [Point],
+    lens: &mut [u32],
+    sums: &mut [[f64; 2]],
+) {
+    let steps = path.len();
+    let ([mx, my], [fa, fb, fc, fd]) = (&path.mean, &path.spread);
+    let [share, w, lx, ly] = at;
+    let (mx, my, fa, fb, fc, fd) = (
+        &mx[..steps],
+        &my[..steps],
+        &fa[..steps],
+        &fb[..steps],
+        &fc[..steps],
+        &fd[..steps],
+    );
+    let (share, w, lx, ly) = (&share[..steps], &w[..steps], &lx[..steps], &ly[..steps]);
+    let sums = &mut sums[..steps];
+    for ((track, len), z) in tracks
         .chunks_exact_mut(steps)
         .zip(lens.iter_mut())
-        .enumerate()
+        .zip(normals)
     {
-        let z = sample_normal(key, s);
+        let (zx, zy) = (z.x, z.y);
         let reached = (*len as usize).min(steps);
-        let mut last = DVec2::ZERO;
-        for (j, out) in track.iter_mut().enumerate() {
-            let m = path_point(path, j, z);
-            let sample = if j < reached {
-                let p = DVec2::new(out[0] as f64, out[1] as f64);
-                // the blend's weight on the line, moved onto the model
-                let line = cv.0 + cv.1 * (j + 1) as f64;
-                p + (m - line) * shares[j][1]
-            } else if j == 0 {
-                // stopped before its first step: it stands on the model's first step
-                m
-            } else {
-                last
-            };
-            last = sample;
-            let p = m + (sample - m) * shares[j][0];
-            *out = [p.x as f32, p.y as f32];
+        // where the map stopped it, it stands: at its last point (moved as below), or,
+        // stopped before its first step, on the model's first step
+        let standing = match reached.checked_sub(1) {
+            _ if reached == steps => DVec2::ZERO,
+            None => path.point(0, *z),
+            Some(j) => {
+                let p = DVec2::new(track[j][0] as f64, track[j][1] as f64);
+                p + (path.point(j, *z) - DVec2::new(lx[j], ly[j])) * w[j]
+            }
+        };
+        // the steps the map's sample reached: the sample with its blend's weight on the
+        // line moved onto the model, and the map's share of it
+        let r = reached;
+        for ((((((((((out, sum), mx), my), fa), fb), fc), fd), share), w), (lx, ly)) in track[..r]
+            .iter_mut()
+            .zip(sums[..r].iter_mut())
+            .zip(&mx[..r])
+            .zip(&my[..r])
+            .zip(&fa[..r])
+            .zip(&fb[..r])
+            .zip(&fc[..r])
+            .zip(&fd[..r])
+            .zip(&share[..r])
+            .zip(&w[..r])
+            .zip(lx[..r].iter().zip(&ly[..r]))
+        {
+            let x = mx + fa * zx + fb * zy;
+            let y = my + fc * zx + fd * zy;
+            let sx = out[0] as f64 + (x - lx) * w;
+            let sy = out[1] as f64 + (y - ly) * w;
+            let p = [(x + (sx - x) * share) as f32, (y + (sy - y) * share) as f32];
+            *out = p;
+            sum[0] += p[0] as f64;
+            sum[1] += p[1] as f64;
+        }
+        // the steps after: standing, and the map's share of that
+        for (((((((out, sum), mx), my), fa), fb), (fc, fd)), share) in track[r..]
+            .iter_mut()
+            .zip(sums[r..].iter_mut())
+            .zip(&mx[r..])
+            .zip(&my[r..])
+            .zip(&fa[r..])
+            .zip(&fb[r..])
+            .zip(fc[r..].iter().zip(&fd[r..]))
+            .zip(&share[r..])
+        {
+            let x = mx + fa * zx + fb * zy;
+            let y = my + fc * zx + fd * zy;
+            let p = [
+                (x + (standing.x - x) * share) as f32,
+                (y + (standing.y - y) * share) as f32,
+            ];
+            *out = p;
+            sum[0] += p[0] as f64;
+            sum[1] += p[1] as f64;
         }
         *len = steps as u32;
     }
-    // the first sample: the samples' mean path
-    let k = lens.len();
-    for j in 0..steps {
-        let (mut x, mut y) = (0.0f64, 0.0f64);
-        for s in 0..k {
-            let p = tracks[s * steps + j];
-            x += p[0] as f64;
-            y += p[1] as f64;
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::motion::MotionModel;
+
+    /// The bending one sample and one step at a time, as the module documentation
+    /// writes it: the sample's point moved by the blend's weight from the line onto the
+    /// model, or where it stopped, then `M + w(t) (S' - M)`; the first sample the mean.
+    fn one_at_a_time(
+        path: &MotionPath,
+        evidence: f64,
+        cv: (DVec2, DVec2),
+        (dt, blend, key): (f64, f64, u64),
+        tracks: &mut [Point],
+        lens: &mut [u32],
+    ) {
+        let steps = path.len();
+        for (s, (track, len)) in tracks
+            .chunks_exact_mut(steps)
+            .zip(lens.iter_mut())
+            .enumerate()
+        {
+            let z = sample_normal(key, s);
+            let reached = (*len as usize).min(steps);
+            let mut last = DVec2::ZERO;
+            for (j, out) in track.iter_mut().enumerate() {
+                let m = path.point(j, z);
+                let sample = if j < reached {
+                    let w = if blend > 0.0 {
+                        (-(j as f64) * dt / blend).exp()
+                    } else {
+                        0.0
+                    };
+                    let line = cv.0 + cv.1 * (j + 1) as f64;
+                    DVec2::new(out[0] as f64, out[1] as f64) + (m - line) * w
+                } else if j == 0 {
+                    m
+                } else {
+                    last
+                };
+                last = sample;
+                let t = (j + 1) as f64 * dt;
+                let share = evidence.powf((-t / SHARE_GROWTH).exp().max(0.5));
+                let p = m + (sample - m) * share;
+                *out = [p.x as f32, p.y as f32];
+            }
+            *len = steps as u32;
         }
-        tracks[j] = [(x / k as f64) as f32, (y / k as f64) as f32];
+        let k = lens.len();
+        for j in 0..steps {
+            let (mut x, mut y) = (0.0f64, 0.0f64);
+            for s in 0..k {
+                x += tracks[s * steps + j][0] as f64;
+                y += tracks[s * steps + j][1] as f64;
+            }
+            tracks[j] = [(x / k as f64) as f32, (y / k as f64) as f32];
+        }
+    }
+
+    #[test]
+    fn the_bending_gives_the_bits_of_one_sample_and_step_at_a_time_on_every_path() {
+        let walker = State {
+            position: DVec2::new(2.0, -1.0),
+            speed: 1.3,
+            heading: 0.4,
+            time: 0.0,
+        };
+        let forecast = MotionModel::builtin().forecast(&History::from_state(&walker));
+        let mut bend = Bend::default();
+        let mut state = 0x2545_f491_4f6c_dd1du64;
+        let mut next = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            state
+        };
+        // step lengths, horizons (past the model's 12 s), blends (none too), odd and even k
+        for (dt, steps, blend, k) in [(0.4, 30, 3.0, 20), (1.0, 50, 0.0, 7), (0.3, 11, 3.0, 1)] {
+            bend.path.fill(&forecast, dt, steps);
+            let cv = (
+                walker.position,
+                DVec2::from_angle(walker.heading) * (1.3 * dt),
+            );
+            for evidence in [0.0, 0.31, 0.5, 1.0] {
+                // samples stopped anywhere from before their first step to the horizon
+                let lens: Vec<u32> = (0..k)
+                    .map(|_| (next() % (steps as u64 + 1)) as u32)
+                    .collect();
+                let tracks: Vec<Point> = (0..k * steps)
+                    .map(|_| {
+                        [
+                            (next() % 4000) as f32 * 0.01 - 20.0,
+                            (next() % 3000) as f32 * 0.01,
+                        ]
+                    })
+                    .collect();
+                let key = next();
+                let (mut want, mut want_lens) = (tracks.clone(), lens.clone());
+                let times = (dt, blend, key);
+                one_at_a_time(&bend.path, evidence, cv, times, &mut want, &mut want_lens);
+                for simd in [Simd::Baseline, Simd::Avx2Fma]
+                    .into_iter()
+                    .filter(|s| s.available())
+                {
+                    let (mut got, mut got_lens) = (tracks.clone(), lens.clone());
+                    bend_to_motion(
+                        &mut bend,
+                        evidence,
+                        cv,
+                        dt,
+                        blend,
+                        key,
+                        &mut got,
+                        &mut got_lens,
+                        simd,
+                    );
+                    let bits =
+                        |t: &[Point]| t.iter().map(|p| p.map(f32::to_bits)).collect::<Vec<_>>();
+                    assert_eq!(
+                        bits(&got),
+                        bits(&want),
+                        "dt {dt} k {k} evidence {evidence} {simd:?}"
+                    );
+                    assert_eq!(got_lens, want_lens);
+                }
+            }
+        }
     }
 }

@@ -118,15 +118,16 @@ pub enum MapCommand {
 #[derive(Subcommand)]
 pub enum MotionCommand {
     /// Fit a motion model to recorded trajectories: ridge regression of the next
-    /// seconds' displacements on the last 2.8 s, in the walker's own frame. Prints a
-    /// validation split's errors beside constant velocity's, then writes the model
-    /// fitted on all the tracks.
+    /// seconds' displacements on the last 2.8 s, in the walker's own frame, corrected
+    /// by a small network (two layers of --hidden units) where walking is not linear
+    /// in the history. Prints a validation split's errors beside constant velocity's,
+    /// then writes the model fitted on all the tracks.
     ///
-    /// Example: cliff motion fit --tracks ../shared/data/thor1/exp-1-run-2.csv --format thor
-    /// --out thor1.motion
+    /// Example: cliff motion fit --tracks ../shared/data/magni/magni-A-first-16min.csv
+    /// --format magni --out site.motion
     ///
-    /// The built-in model (src/motion/builtin.motion) is made by:
-    /// cliff motion fit --tracks ../shared/data/atc/train/*.csv --format atc
+    /// The built-in model (src/motion/builtin.motion, linear) is made by:
+    /// cliff motion fit --tracks ../shared/data/atc/train/*.csv --format atc --hidden 0
     ///   --out src/motion/builtin.motion
     Fit(Box<FitArgs>),
     /// Show what a motion model file holds (without a file: the built-in model).

@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, Result, bail};
 use clap::Args;
 use cliff::motion::{
-    HorizonErrors, MODEL_DT, MotionFit, fit_motion_model_sources, motion_model_errors,
+    HorizonErrors, MODEL_DT, MotionFit, NetworkFit, fit_motion_model_sources, motion_model_errors,
 };
 use cliff::tracks::{Format, Track};
 
@@ -41,6 +41,18 @@ pub struct FitArgs {
     /// A track is cut where two rows are further apart than this (s).
     #[arg(long, default_value_t = MotionFit::default().max_gap)]
     pub max_gap: f64,
+    /// Hidden units per layer of the network that corrects the linear part where
+    /// walking is not linear in the history (people slowing to a stop, starting,
+    /// turning); 0 fits the linear part alone. The network is trained on at most
+    /// 300,000 windows (every n-th beyond) and costs a few seconds per 10,000 windows.
+    #[arg(long, default_value_t = NetworkFit::default().hidden)]
+    pub hidden: usize,
+    /// Passes of the network's training over the windows.
+    #[arg(long, default_value_t = NetworkFit::default().epochs)]
+    pub epochs: usize,
+    /// Seed of the network's training (shuffling, starting weights).
+    #[arg(long, default_value_t = NetworkFit::default().seed)]
+    pub seed: u64,
     /// Share of the data held out to print the validation errors: every n-th track
     /// (with 10 tracks or more), else the last part of each track in time. The model
     /// written is fitted on all the tracks.
@@ -104,6 +116,11 @@ pub fn run(a: FitArgs) -> Result<()> {
         max_speed: a.max_speed,
         max_gap: a.max_gap,
         source: sources.join(" "),
+        network: (a.hidden > 0).then_some(NetworkFit {
+            hidden: a.hidden,
+            epochs: a.epochs,
+            seed: a.seed,
+        }),
         ..MotionFit::default()
     };
     let tracks: usize = groups.iter().map(Vec::len).sum();
@@ -133,8 +150,12 @@ pub fn run(a: FitArgs) -> Result<()> {
     let model = fit_motion_model_sources(&all, &fit)?;
     model.save(&a.out)?;
     let info = model.info();
+    let network = model.network().map_or_else(
+        || "no network".to_string(),
+        |n| format!("a network of 2 x {} units", n.hidden),
+    );
     println!(
-        "wrote {}: {} steps ({:.1} s) fitted on {} windows of {} tracks (lambda {}, steps over {} m/s left out)",
+        "wrote {}: {} steps ({:.1} s) fitted on {} windows of {} tracks (lambda {}, {network}, steps over {} m/s left out)",
         a.out.display(),
         model.steps(),
         model.steps() as f64 * MODEL_DT,

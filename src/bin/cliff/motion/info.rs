@@ -32,6 +32,13 @@ pub fn run(a: InfoArgs) -> Result<()> {
     );
     println!("windows    {}", info.windows);
     println!("lambda     {} m^2", info.lambda);
+    match model.network() {
+        Some(n) => println!(
+            "network    2 layers of {} units correcting the linear part",
+            n.hidden
+        ),
+        None => println!("network    none (the linear part alone)"),
+    }
     println!(
         "max speed  {} m/s (faster steps left out as tracking jumps)",
         info.max_speed
