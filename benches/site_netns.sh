@@ -6,18 +6,22 @@
 #     (hour 10), listening on tcp/10.213.9.1:7447;
 #   * robot (10.213.9.2): cliffd --follow atc=tcp/10.213.9.1:7447 (its own learning off),
 #     a local client asking it 100 times a second all along (cliff-bench, over
-#     iceoryx2), and `cliff observe --zenoh` sending the other training hours' people to
-#     the site as observations;
+#     iceoryx2), and `cliff observe --zenoh` streaming the other training hours' people to
+#     the site as a robot's tracker would: each request the rows of EVERY_S (0.4) s of
+#     recording time, sent when that time has come, the recording replayed SPEED (1600)
+#     times faster than real time (an hour in 2.25 s);
 #   * then the site is killed (SIGKILL) and restarted on its snapshot, and one more hour
 #     is sent: the robot follows again.
 #
-# Prints, as JSON lines: the versions the site learned and the robot took, with the
+# Prints, as JSON lines: how late the streamed requests went out after their time, the
+# versions the site learned and the robot took, with the
 # delay of each (from the two logs' times), the robot's requests and failures
 # throughout, and the mean log-likelihood of atc/dev's people under the site's newest
 # snapshot and the robot's (`cliff map score`), which must be within 0.05.
 #
 #   sudo benches/site_netns.sh            # the other ten hours (about a minute)
 #   HOURS=3 sudo benches/site_netns.sh    # three of them
+#   SPEED=360 EVERY_S=0.1 sudo benches/site_netns.sh   # slower, in smaller windows
 #
 # Exits non-zero unless the robot's newest snapshot scores within 0.05 of the site's,
 # no request of the robot failed, and the robot took a version the restarted site
@@ -36,6 +40,8 @@ port=7447
 site_ns=cliffs-site
 robot_ns=cliffs-robot
 endpoint="tcp/10.213.9.1:$port"
+every_s=${EVERY_S:-0.4}
+speed=${SPEED:-1600}
 
 if [ -z "${CLIFF_PREBUILT:-}" ]; then
     cargo build --release -q -p cliff-service --features zenoh --bin cliffd
@@ -93,9 +99,12 @@ ready() {
     exit 1
 }
 
+# One session stands for the robots of a site, replayed SPEED times faster: its rows per
+# second budget (--observe-rate) is well above the stream's (about 21,000 rows/s on
+# average at 1600x), so that the stream is never held back by it.
 site_args=(--prefix cliffs_site_ --map "atc=$out/one-hour.cliff" --learn atc --learn-dir "$out/site"
     --learn-count-scale "$scale" --learn-client-share 1 --learn-track-rows 100000
-    --learn-move-per-min inf --observe-rate 20000 --observe-rows-held 65536
+    --learn-move-per-min inf --observe-rate 100000 --observe-rows-held 65536
     --observe-tracks 4096 --track-timeout-s 0.5 --learn-every-s 3 --snapshot-every-s 1
     --zenoh "$endpoint")
 start_site() {
@@ -123,10 +132,19 @@ touch "$out/polling"
 poller=$!
 pids+=("$poller")
 
+# the robot's tracker: rows streamed in windows of recording time; its closing lines say
+# how many rows the site took and how late the requests went out
+observe() {
+    ip netns exec "$robot_ns" "$bin/cliff" observe --map atc --tracks "$@" --format atc \
+        --zenoh "$endpoint" --quiet --give-up-s 30 --every-s "$every_s" --speed "$speed" |
+        tee -a "$out/observe.out"
+}
+streamed() {
+    sed -n 's/.*: \([0-9]*\) requests, sent after their time by \([0-9.]*\) ms median, \([0-9.]*\) ms p99, \([0-9.]*\) ms at most/"requests":\1,"late_median_ms":\2,"late_p99_ms":\3,"late_max_ms":\4/p' "$out/observe.out" | tail -n 1
+}
 t0=$(date +%s.%N)
-ip netns exec "$robot_ns" "$bin/cliff" observe --map atc --tracks "${rest[@]}" --format atc \
-    --zenoh "$endpoint" --quiet --give-up-s 30
-echo "{\"phase\":\"observed\",\"hours\":${#rest[@]},\"seconds\":$(echo "$(date +%s.%N) - $t0" | bc)}"
+observe "${rest[@]}" >/dev/null
+echo "{\"phase\":\"observed\",\"hours\":${#rest[@]},\"seconds\":$(echo "$(date +%s.%N) - $t0" | bc),\"every_s\":$every_s,\"speed\":$speed,$(streamed)}"
 sleep 8 # the last rows wait for the site's learning interval, the robot for its next question
 
 newest() { ls "$1"/atc.v*.cliff 2>/dev/null | sort | tail -n 1; }
@@ -143,8 +161,7 @@ kill -KILL "$site_pid"
 wait "$site_pid" 2>/dev/null || true
 sleep 5
 start_site 2
-ip netns exec "$robot_ns" "$bin/cliff" observe --map atc --tracks "$first" --format atc \
-    --zenoh "$endpoint" --quiet --give-up-s 30
+observe "$first" >/dev/null
 sleep 8
 rm -f "$out/polling"
 wait "$poller" 2>/dev/null || true

@@ -2,10 +2,16 @@
 //! invariants, or names the file, line and column of what is wrong.
 #![no_main]
 
+use cliff::tracks::rosbag2::is_mcap;
 use cliff::tracks::{DatasetError, Format, parse_track_bytes};
 use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {
+    // bytes that begin with the MCAP magic are a rosbag2 recording whatever the format
+    // asked for (`parse_track_bytes`): the target tracks_rosbag2 reads those
+    if is_mcap(data) {
+        return;
+    }
     match parse_track_bytes(data, "fuzz.csv", Format::Atc) {
         Ok(tracks) => {
             for t in &tracks {

@@ -14,7 +14,18 @@ const PARAM_HELP: &[(&str, &str)] = &[
         "map to predict from in-process (.csv, .cliff, a time-of-day set, or 'demo'); empty: ask cliffd",
     ),
     ("daemon_map", "the map's name at cliffd"),
-    ("daemon_service", "cliffd's iceoryx2 service"),
+    (
+        "daemon_service",
+        "cliffd's service (iceoryx2 service; zenoh key expression over zenoh)",
+    ),
+    (
+        "daemon_zenoh",
+        "reach cliffd on another host over zenoh at this endpoint (tcp/HOST:7447); needs the build feature zenoh",
+    ),
+    (
+        "daemon_zenoh_config",
+        "zenoh configuration file for reaching cliffd (TLS certificates, endpoints); needs the build feature zenoh",
+    ),
     ("daemon_deadline", "seconds one cliffd call may take"),
     (
         "observe",

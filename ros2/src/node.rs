@@ -17,8 +17,8 @@ use crate::msg::{
     self, MarkerArray, OccupancyGrid, People, PredictedObjects, Predictions, Shared, TrackedObjects,
 };
 use crate::observer::Observer;
-use crate::predictor::Predictor;
-use crate::settings::Settings;
+use crate::predictor::{Link, Predictor};
+use crate::settings::{Parameters, Settings};
 use crate::tracks::Keeper;
 
 /// The absolute name of topic `name` in `namespace` (a relative name resolves in it).
@@ -38,18 +38,10 @@ fn type_name((pkg, ty): msg::TypeName) -> MessageTypeName {
     MessageTypeName::new(pkg, ty)
 }
 
-/// Run the node until the process is stopped. `domain_id`: the DDS domain.
-pub fn run(settings: Settings, domain_id: u16) -> Result<()> {
-    let p = &settings.params;
+/// The engine of a node with parameters `p`: its keeper, predictor (in-process, or the
+/// cliffd of this host or, over zenoh, of another), markers, grid and observer.
+pub fn engine(p: &Parameters) -> Result<Engine> {
     let predictor = Predictor::new(&p.source(), p.predict())?;
-    let map_for_markers = match predictor.local_maps() {
-        Some(set) => Some(set.all_day().clone()),
-        None if !p.map_markers_file.is_empty() => Some(std::sync::Arc::new(
-            cliff::map::CliffMap::load(&p.map_markers_file)
-                .with_context(|| format!("loading map_markers_file {}", p.map_markers_file))?,
-        )),
-        None => None,
-    };
     let style = MarkerStyle {
         width: p.marker_width,
         lifetime: p.marker_lifetime,
@@ -68,6 +60,21 @@ pub fn run(settings: Settings, domain_id: u16) -> Result<()> {
     if p.observe {
         engine = engine.with_observer(Observer::new(&p.daemon_map, p.max_tracks)?);
     }
+    Ok(engine)
+}
+
+/// Run the node until the process is stopped. `domain_id`: the DDS domain.
+pub fn run(settings: Settings, domain_id: u16) -> Result<()> {
+    let p = &settings.params;
+    let mut engine = engine(p)?;
+    let map_for_markers = match engine.predictor().local_maps() {
+        Some(set) => Some(set.all_day().clone()),
+        None if !p.map_markers_file.is_empty() => Some(std::sync::Arc::new(
+            cliff::map::CliffMap::load(&p.map_markers_file)
+                .with_context(|| format!("loading map_markers_file {}", p.map_markers_file))?,
+        )),
+        None => None,
+    };
 
     let context = Context::with_options(ContextOptions::new().domain_id(domain_id))
         .map_err(|e| anyhow::anyhow!("DDS participant on domain {domain_id}: {e:?}"))?;
@@ -214,11 +221,25 @@ pub fn run(settings: Settings, domain_id: u16) -> Result<()> {
         t["objects"],
         engine.predictor().map_label(),
         if engine.predictor().local_maps().is_some() {
-            "in-process"
-        } else if engine.observer().is_some() {
-            "through cliffd, sending it the tracks as observations"
+            "in-process".to_string()
         } else {
-            "through cliffd"
+            let via = match p.link()? {
+                Link::SharedMemory => "through cliffd".to_string(),
+                Link::Zenoh { endpoints, config } => format!(
+                    "through cliffd over zenoh ({})",
+                    endpoints
+                        .iter()
+                        .cloned()
+                        .chain(config.map(|c| format!("config {}", c.display())))
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                ),
+            };
+            if engine.observer().is_some() {
+                format!("{via}, sending it the tracks as observations")
+            } else {
+                via
+            }
         },
         p.k,
         p.horizon,

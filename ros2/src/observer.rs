@@ -11,7 +11,7 @@
 //! from its answer) and at most half of what its rows-per-second budget lets through, so
 //! that a node that was cut off from the daemon catches up in several calls.
 
-use cliff_client::protocol::{Field, MAX_OBSERVE_ROWS, ObserveReply};
+use cliff_client::protocol::{Field, MAX_OBSERVE_ROWS, ObserveReply, Status};
 use cliff_client::{Observation, ObserveRequest};
 
 use crate::predictor::{ObserveError, Predictor};
@@ -41,7 +41,11 @@ pub struct ObserveStats {
     pub ends: u64,
     /// Calls the daemon turned down for its budget (sent again later).
     pub over_budget: u64,
-    /// Calls that failed otherwise (daemon away, refused, too many rows at once).
+    /// Calls the daemon turned down with a status other than over budget (`not-allowed`,
+    /// `not-learning`, ...; the last one is [`Observer::last_refusal`]) or that could not
+    /// be sent: the rows are sent again at the next cycle.
+    pub refused: u64,
+    /// Calls that failed otherwise (daemon away, too many rows at once).
     pub failed: u64,
     /// Track ends given up on (more tracks ended while the daemon was away than are kept).
     pub ends_dropped: u64,
@@ -63,6 +67,7 @@ pub struct Observer {
     /// Rows per request (the protocol's limit until the daemon says less).
     max_rows: usize,
     stats: ObserveStats,
+    last_refusal: Option<Status>,
 }
 
 impl Observer {
@@ -79,12 +84,19 @@ impl Observer {
             max_ending: max_tracks.max(1),
             max_rows: MAX_OBSERVE_ROWS as usize,
             stats: ObserveStats::default(),
+            last_refusal: None,
         })
     }
 
     /// The counters.
     pub fn stats(&self) -> ObserveStats {
         self.stats
+    }
+
+    /// The status of the last call the daemon turned down (not for over budget or too
+    /// many rows, which the observer adapts to), if any.
+    pub fn last_refusal(&self) -> Option<Status> {
+        self.last_refusal
     }
 
     /// Rows per request now (lowered by the daemon's answers).
@@ -194,7 +206,12 @@ impl Observer {
                         self.stats.failed += 1;
                         self.lower_max_rows(*limit as usize);
                     }
-                    _ => self.stats.failed += 1,
+                    ObserveError::Rejected(r) => {
+                        self.stats.refused += 1;
+                        self.last_refusal = Some(r.status);
+                    }
+                    ObserveError::Refused(_) => self.stats.refused += 1,
+                    ObserveError::Unavailable(_) => self.stats.failed += 1,
                 }
                 Err(e)
             }

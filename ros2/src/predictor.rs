@@ -1,5 +1,6 @@
-//! Where predictions come from: a running `cliffd` (through `cliff-client`, shared
-//! memory) or an in-process [`LocalPredictor`] on a map file. Both decode the same
+//! Where predictions come from: a running `cliffd` (through `cliff-client`: shared
+//! memory on this host, or zenoh to a cliffd on another host with the cargo feature
+//! `zenoh`) or an in-process [`LocalPredictor`] on a map file. All decode the same
 //! request the same way, so the same histories and seed give the same numbers.
 
 use std::path::PathBuf;
@@ -70,13 +71,37 @@ pub fn method_name(m: Method) -> &'static str {
     m.name()
 }
 
+/// How the node reaches its `cliffd`.
+#[derive(Debug, Clone, PartialEq, Eq, Default)]
+pub enum Link {
+    /// iceoryx2 shared memory: a cliffd on this host.
+    #[default]
+    SharedMemory,
+    /// zenoh: a cliffd on any host, at these endpoints (`tcp/HOST:7447`) and as the zenoh
+    /// configuration file says (TLS certificates, ...; see
+    /// [`cliff_client::Client::connect_zenoh_with`]). Needs the cargo feature `zenoh`;
+    /// without it every attempt fails with [`ZENOH_MISSING`].
+    Zenoh {
+        /// Endpoints (may be empty when the file names them).
+        endpoints: Vec<String>,
+        /// A zenoh configuration file for the client.
+        config: Option<PathBuf>,
+    },
+}
+
+/// Why a build without the cargo feature `zenoh` cannot reach a cliffd over zenoh, with
+/// the build line that can.
+pub const ZENOH_MISSING: &str = "this cliff-ros2 is built without zenoh; build it with: cargo build --release -p cliff-ros2 --features zenoh";
+
 /// Where predictions come from.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Source {
     /// A `cliffd` serving `service` with a map named `map`.
     Daemon {
-        /// iceoryx2 service name.
+        /// The daemon's service name (iceoryx2 service, zenoh key expression).
         service: String,
+        /// How the daemon is reached.
+        link: Link,
         /// The map's name at the daemon.
         map: String,
         /// Deadline of one call.
@@ -151,7 +176,13 @@ pub enum ObserveError {
     /// --max-observe-rows`, the limit): nothing was taken.
     #[error("more rows than cliffd takes in one request (at most {0})")]
     TooManyRows(u32),
-    /// The daemon refused the rows (no learned map of that name, bad rows).
+    /// The daemon turned the rows down with a status: `not-allowed` (over zenoh, a
+    /// session that access control keeps off the observe key), `not-learning` (a map it
+    /// serves but does not learn), bad rows. Nothing was taken.
+    #[error("observations refused by cliffd: {0}")]
+    Rejected(Rejection),
+    /// The rows could not be sent (no daemon to send them to, a failure that is not the
+    /// daemon's absence).
     #[error("observations refused: {0}")]
     Refused(String),
 }
@@ -170,6 +201,7 @@ pub enum PredictError {
 enum Backend {
     Daemon {
         service: String,
+        link: Link,
         options: ClientOptions,
         client: Option<Client>,
         next_try: Instant,
@@ -202,11 +234,13 @@ impl Predictor {
         let (backend, map_name, map_label) = match source {
             Source::Daemon {
                 service,
+                link,
                 map,
                 deadline,
             } => (
                 Backend::Daemon {
                     service: service.clone(),
+                    link: checked(link)?,
                     options: ClientOptions {
                         deadline: *deadline,
                         ..ClientOptions::default()
@@ -343,11 +377,12 @@ impl Predictor {
             }
             Backend::Daemon {
                 service,
+                link,
                 options,
                 client,
                 next_try,
             } => {
-                let c = connect(service, options, client, next_try)
+                let c = connect(service, link, options, client, next_try)
                     .map_err(PredictError::Unavailable)?;
                 match c.predict(request) {
                     Ok(p) => {
@@ -370,6 +405,7 @@ impl Predictor {
 /// [`RECONNECT`]); the error says why there is none.
 fn connect<'a>(
     service: &str,
+    link: &Link,
     options: &ClientOptions,
     client: &'a mut Option<Client>,
     next_try: &mut Instant,
@@ -380,9 +416,39 @@ fn connect<'a>(
             return Err(format!("no cliffd serves '{service}' yet"));
         }
         *next_try = now + RECONNECT;
-        *client = Some(Client::connect_with(service, options.clone()).map_err(|e| e.to_string())?);
+        *client = Some(open(service, link, options).map_err(|e| e.to_string())?);
     }
     Ok(client.as_mut().expect("connected above"))
+}
+
+/// `link`, once its zenoh configuration is known to be good (a file that does not read
+/// or parse, an endpoint that is not one: an error naming it, at start rather than at
+/// every attempt to connect).
+fn checked(link: &Link) -> anyhow::Result<Link> {
+    match link {
+        Link::SharedMemory => {}
+        #[cfg(feature = "zenoh")]
+        Link::Zenoh { endpoints, config } => {
+            cliff_client::zenoh::client_config(endpoints, config.as_deref())
+                .map_err(|e| anyhow::anyhow!("reaching cliffd over zenoh: {e}"))?;
+        }
+        #[cfg(not(feature = "zenoh"))]
+        Link::Zenoh { .. } => anyhow::bail!("reaching cliffd over zenoh: {ZENOH_MISSING}"),
+    }
+    Ok(link.clone())
+}
+
+/// A connection to the daemon serving `service` over `link`.
+fn open(service: &str, link: &Link, options: &ClientOptions) -> Result<Client, ClientError> {
+    match link {
+        Link::SharedMemory => Client::connect_with(service, options.clone()),
+        #[cfg(feature = "zenoh")]
+        Link::Zenoh { endpoints, config } => {
+            Client::connect_zenoh_with(endpoints, config.as_deref(), service, options.clone())
+        }
+        #[cfg(not(feature = "zenoh"))]
+        Link::Zenoh { .. } => Err(ClientError::InvalidRequest(ZENOH_MISSING.into())),
+    }
 }
 
 /// Whether a failed call means the daemon is away (`Ok`, with why; an iceoryx2 failure
@@ -407,6 +473,7 @@ impl Predictor {
     pub fn observe(&mut self, request: &ObserveRequest) -> Result<ObserveReply, ObserveError> {
         let Backend::Daemon {
             service,
+            link,
             options,
             client,
             next_try,
@@ -416,7 +483,8 @@ impl Predictor {
                 "observations need a daemon (map_file is set)".into(),
             ));
         };
-        let c = connect(service, options, client, next_try).map_err(ObserveError::Unavailable)?;
+        let c =
+            connect(service, link, options, client, next_try).map_err(ObserveError::Unavailable)?;
         match c.observe(request) {
             Ok(reply) => Ok(reply),
             Err(ClientError::Rejected(r)) if r.status == Status::OverBudget => {
@@ -427,6 +495,7 @@ impl Predictor {
             {
                 Err(ObserveError::TooManyRows(r.limit))
             }
+            Err(ClientError::Rejected(r)) => Err(ObserveError::Rejected(r)),
             Err(e) => Err(match away(e, client) {
                 Ok(why) => ObserveError::Unavailable(why),
                 Err(e) => ObserveError::Refused(e.to_string()),

@@ -19,7 +19,7 @@ use serde::{Deserialize, Serialize};
 use serde_yaml_ng::{Mapping, Value};
 
 use crate::grid::GridSettings;
-use crate::predictor::{PredictSettings, Source, TimeOfDay};
+use crate::predictor::{Link, PredictSettings, Source, TimeOfDay, ZENOH_MISSING};
 use crate::tracks::{KeeperSettings, StaticTransform};
 
 /// Every parameter, with its default (the names are the YAML keys).
@@ -31,8 +31,15 @@ pub struct Parameters {
     pub map_file: String,
     /// The map's name at the daemon.
     pub daemon_map: String,
-    /// The daemon's iceoryx2 service.
+    /// The daemon's service (its iceoryx2 service; its zenoh key expression over zenoh).
     pub daemon_service: String,
+    /// Reach a cliffd on another host over zenoh at this endpoint (`tcp/HOST:7447`,
+    /// `tls/HOST:7447`); empty: the cliffd of this host over shared memory, unless
+    /// `daemon_zenoh_config` is set. Needs the cargo feature `zenoh`.
+    pub daemon_zenoh: String,
+    /// A zenoh configuration file for reaching cliffd (TLS certificates, endpoints); set
+    /// alone, it names the endpoints itself. Needs the cargo feature `zenoh`.
+    pub daemon_zenoh_config: String,
     /// Deadline of one daemon call (s).
     pub daemon_deadline: f64,
     /// Send every track's rows to the daemon as observations of `daemon_map`, for a
@@ -114,6 +121,8 @@ impl Default for Parameters {
             map_file: String::new(),
             daemon_map: "demo".into(),
             daemon_service: cliff_client::DEFAULT_SERVICE.into(),
+            daemon_zenoh: String::new(),
+            daemon_zenoh_config: String::new(),
             daemon_deadline: 0.2,
             observe: false,
             map_markers_file: String::new(),
@@ -290,6 +299,7 @@ impl Parameters {
                 self.map_file
             );
         }
+        self.link()?;
         self.method()?;
         self.time_of_day()?;
         self.grid_settings()?;
@@ -325,6 +335,39 @@ impl Parameters {
         s.check(self.horizon)
             .map_err(|e| anyhow::anyhow!("parameter {e}"))?;
         Ok(s)
+    }
+
+    /// How the daemon is reached: zenoh when `daemon_zenoh` or `daemon_zenoh_config` is
+    /// set (an error in a build without the cargo feature `zenoh`, with the build line;
+    /// and when `map_file` predicts in-process, which needs no daemon), else shared
+    /// memory.
+    pub fn link(&self) -> Result<Link> {
+        if self.daemon_zenoh.is_empty() && self.daemon_zenoh_config.is_empty() {
+            return Ok(Link::SharedMemory);
+        }
+        let which = if self.daemon_zenoh.is_empty() {
+            "daemon_zenoh_config"
+        } else {
+            "daemon_zenoh"
+        };
+        if !self.map_file.is_empty() {
+            bail!(
+                "parameter {which}: cliffd is reached over zenoh, but map_file '{}' predicts in-process (set map_file to \"\" to predict through the remote cliffd)",
+                self.map_file
+            );
+        }
+        if !cfg!(feature = "zenoh") {
+            bail!("parameter {which}: {ZENOH_MISSING}");
+        }
+        Ok(Link::Zenoh {
+            endpoints: if self.daemon_zenoh.is_empty() {
+                Vec::new()
+            } else {
+                vec![self.daemon_zenoh.clone()]
+            },
+            config: (!self.daemon_zenoh_config.is_empty())
+                .then(|| PathBuf::from(&self.daemon_zenoh_config)),
+        })
     }
 
     /// The method.
@@ -402,6 +445,7 @@ impl Parameters {
         if self.map_file.is_empty() {
             Source::Daemon {
                 service: self.daemon_service.clone(),
+                link: self.link().unwrap_or_default(),
                 map: self.daemon_map.clone(),
                 deadline: Duration::from_secs_f64(self.daemon_deadline),
             }
@@ -551,6 +595,50 @@ mod tests {
         // a renamed node in a namespace reads it as well
         let m = file_parameters(&path, "people_predictor", "/robot").unwrap();
         assert_eq!(parameters(m, &[]).unwrap(), Parameters::default());
+    }
+
+    #[test]
+    fn daemon_zenoh_reaches_cliffd_over_zenoh_or_names_the_build_line() {
+        let p = parameters(Mapping::new(), &["daemon_zenoh:=tcp/192.0.2.7:7447".into()]);
+        if cfg!(feature = "zenoh") {
+            let p = p.unwrap();
+            assert_eq!(
+                p.link().unwrap(),
+                Link::Zenoh {
+                    endpoints: vec!["tcp/192.0.2.7:7447".into()],
+                    config: None
+                }
+            );
+            assert!(matches!(
+                p.source(),
+                Source::Daemon {
+                    link: Link::Zenoh { .. },
+                    ..
+                }
+            ));
+        } else {
+            let e = format!("{:#}", p.unwrap_err());
+            assert!(
+                e.contains("parameter daemon_zenoh")
+                    && e.contains("cargo build --release -p cliff-ros2 --features zenoh"),
+                "{e}"
+            );
+        }
+        // a configuration file alone is zenoh too; with an in-process map it is refused
+        let e = parameters(
+            Mapping::new(),
+            &[
+                "daemon_zenoh_config:=/etc/cliff/robot.json5".into(),
+                "map_file:=demo".into(),
+            ],
+        )
+        .unwrap_err();
+        let e = format!("{e:#}");
+        assert!(
+            e.contains("parameter daemon_zenoh_config") && e.contains("map_file"),
+            "{e}"
+        );
+        assert_eq!(Parameters::default().link().unwrap(), Link::SharedMemory);
     }
 
     #[test]

@@ -6,8 +6,6 @@
 
 mod common;
 
-use std::path::{Path, PathBuf};
-use std::process::Command;
 use std::time::Duration;
 
 use cliff::map::CliffMap;
@@ -15,111 +13,15 @@ use cliff::predict::Method;
 use cliff::predict::Params;
 use cliff::tracks::{Format, read_tracks};
 use cliff_client::{Client, ClientOptions, Error, Observation, ObserveRequest, Request, Status};
+use common::tls::{certificates, docs_config as docs_config_for};
 use common::*;
 
 const PORT_TLS: u16 = 27_471;
 const PORT_SITE: u16 = 27_472;
 
-fn openssl(dir: &Path, args: &[&str]) {
-    let out = Command::new("openssl")
-        .args(args)
-        .current_dir(dir)
-        .output()
-        .expect("run openssl (install it: apt-get install openssl)");
-    assert!(
-        out.status.success(),
-        "openssl {args:?}: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-}
-
-/// A CA, a certificate for cliffd (127.0.0.1) and one per client common name.
-fn certificates(dir: &Path, clients: &[&str]) {
-    let ec = [
-        "-newkey",
-        "ec",
-        "-pkeyopt",
-        "ec_paramgen_curve:prime256v1",
-        "-nodes",
-    ];
-    let mut ca = vec!["req", "-x509"];
-    ca.extend(ec);
-    ca.extend([
-        "-keyout",
-        "ca.key",
-        "-out",
-        "ca.pem",
-        "-days",
-        "2",
-        "-subj",
-        "/CN=cliff-test-ca",
-        "-addext",
-        "basicConstraints=critical,CA:TRUE",
-        "-addext",
-        "keyUsage=critical,keyCertSign,cRLSign",
-    ]);
-    openssl(dir, &ca);
-    let sign = |name: &str, ext: &str| {
-        std::fs::write(dir.join(format!("{name}.ext")), ext).unwrap();
-        let (key, csr, pem, extf, subj) = (
-            format!("{name}.key"),
-            format!("{name}.csr"),
-            format!("{name}.pem"),
-            format!("{name}.ext"),
-            format!("/CN={name}"),
-        );
-        let mut req = vec!["req"];
-        req.extend(ec);
-        req.extend(["-keyout", &key, "-out", &csr, "-subj", &subj]);
-        openssl(dir, &req);
-        openssl(
-            dir,
-            &[
-                "x509",
-                "-req",
-                "-in",
-                &csr,
-                "-CA",
-                "ca.pem",
-                "-CAkey",
-                "ca.key",
-                "-CAcreateserial",
-                "-out",
-                &pem,
-                "-days",
-                "2",
-                "-extfile",
-                &extf,
-            ],
-        );
-    };
-    sign(
-        "cliffd",
-        "subjectAltName=IP:127.0.0.1,DNS:localhost\nextendedKeyUsage=serverAuth\n",
-    );
-    for c in clients {
-        sign(c, "extendedKeyUsage=clientAuth\n");
-    }
-}
-
-/// A file of docs/zenoh/ with the certificate directory and the service name of the
-/// test put in.
-fn docs_config(file: &str, dir: &Path, cert_as: &str) -> PathBuf {
-    let src = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../docs/zenoh")
-        .join(file);
-    let text = std::fs::read_to_string(&src).expect("docs/zenoh config");
-    let text = text
-        .replace(
-            "/etc/cliff/robot-1",
-            &format!("{}/{cert_as}", dir.display()),
-        )
-        .replace("/etc/cliff/", &format!("{}/", dir.display()))
-        .replace("\"cliff/predict\"", &format!("{SERVICE:?}"))
-        .replace("\"cliff/predict/", &format!("\"{SERVICE}/"));
-    let out = dir.join(format!("{cert_as}-{file}"));
-    std::fs::write(&out, text).unwrap();
-    out
+/// A file of docs/zenoh/ for this test's service ([`docs_config_for`]).
+fn docs_config(file: &str, dir: &std::path::Path, cert_as: &str) -> std::path::PathBuf {
+    docs_config_for(file, dir, cert_as, SERVICE)
 }
 
 #[test]

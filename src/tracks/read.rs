@@ -228,6 +228,30 @@ mod tests {
     }
 
     #[test]
+    fn bytes_with_the_mcap_magic_are_a_recording_whatever_the_text_format() {
+        // inputs of the fuzz targets tracks_thor and tracks_named: the MCAP magic, then
+        // text; read as a recording (its error names the file, no line), not as rows
+        for (bytes, format) in [
+            (&b"\x89MCAP0\r\n01,.=46,-3443.,.010.41"[..], Format::Thor),
+            (
+                &b"\x89MCAP0\r\nTime0Time,ag_id,x,y,speed"[..],
+                Format::Magni,
+            ),
+        ] {
+            match parse_track_bytes(bytes, "fuzz.csv", format) {
+                Err(DatasetError::Recording { file, message }) => {
+                    assert_eq!(file, "fuzz.csv");
+                    assert!(
+                        message.contains("not a readable rosbag2 MCAP recording"),
+                        "{message}"
+                    );
+                }
+                other => panic!("{format:?}: {other:?}"),
+            }
+        }
+    }
+
+    #[test]
     fn refuses_files_over_the_size_limit_before_reading() {
         // a sparse file of 1 GiB + 1 byte costs no disk
         let dir = tempfile::tempdir().unwrap();

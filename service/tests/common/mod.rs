@@ -2,6 +2,8 @@
 //! child that is always killed, and requests with known in-process answers.
 #![allow(dead_code)]
 
+pub mod tls;
+
 use std::io::{BufRead, BufReader};
 use std::path::PathBuf;
 use std::process::{Child, Command, Stdio};

@@ -46,6 +46,17 @@ impl Feed {
         Some((self.rows.first()?.t, self.rows.last()?.t))
     }
 
+    /// The window of `every` seconds of recording time (windows start at the first row's
+    /// time) holding the row at `start`: the end (exclusive) of its rows from `start`, at
+    /// least `start + 1`, and the time the window closes.
+    pub(crate) fn window(&self, start: usize, every: f64) -> (usize, f64) {
+        let t0 = self.rows[0].t;
+        let k = ((self.rows[start].t - t0) / every).floor();
+        let close = t0 + (k + 1.0) * every;
+        let end = start + self.rows[start..].partition_point(|o| o.t < close);
+        (end.max(start + 1), close)
+    }
+
     /// The rows from `start` of one request of at most `max` rows: the rows of a time
     /// window, grouped by track (each track's rows stay in time order).
     pub(crate) fn request(&self, start: usize, max: usize, out: &mut Vec<Observation>) {
@@ -87,5 +98,31 @@ mod tests {
         feed.request(4, 4, &mut out);
         let ends: Vec<bool> = out.iter().map(|o| o.flags & FLAG_TRACK_END != 0).collect();
         assert_eq!(ends, vec![true, true]);
+    }
+
+    #[test]
+    fn windows_hold_the_rows_of_their_seconds_of_recording_time() {
+        // rows at 10, 10.2, 10.5, 11, 11.5 and 12.1
+        let text = "10,1,0,0,1,0\n11,1,1,0,1,0\n12.1,1,2,0,1,0\n10.5,2,5,5,1,0\n11.5,2,5,6,1,0\n";
+        let a = parse_tracks(text, "a", Format::Atc).unwrap();
+        let b = parse_tracks("10.2,1,9,9,1,0\n", "b", Format::Atc).unwrap();
+        let feed = Feed::new(&[a, b]).unwrap();
+        // windows of 0.4 s: [10, 10.4) holds 10 and 10.2; [10.4, 10.8) holds 10.5; then
+        // 11, 11.5 and 12.1 each in a window of their own
+        let mut starts = vec![0];
+        let mut closes = Vec::new();
+        while *starts.last().unwrap() < feed.len() {
+            let (end, close) = feed.window(*starts.last().unwrap(), 0.4);
+            starts.push(end);
+            closes.push(close);
+        }
+        assert_eq!(starts, vec![0, 2, 3, 4, 5, 6]);
+        let want = [10.4, 10.8, 11.2, 11.6, 12.4];
+        assert_eq!(closes.len(), want.len());
+        for (c, w) in closes.iter().zip(want) {
+            assert!((c - w).abs() < 1e-9, "{closes:?}");
+        }
+        // a window as long as the recording holds all of it
+        assert_eq!(feed.window(0, 10.0).0, feed.len());
     }
 }

@@ -21,9 +21,12 @@ use feed::Feed;
 /// Reads the trajectory files, merges their rows in time order (as a live tracker would
 /// see them) and sends them to the daemon in observe requests for the map --map, which
 /// the daemon must learn (cliffd --learn NAME). As fast as the daemon accepts (a request
-/// over the client's budget is sent again a little later), or at --rate rows per second.
-/// Each file's people are tracks of their own; a track's last row tells the daemon the
-/// person left.
+/// over the client's budget is sent again a little later), or at --rate rows per second,
+/// or as a robot streams what it sees: with --every-s, each request holds the rows of
+/// one window of that many seconds of recording time, and with --speed each window is
+/// sent once its time has come (the recording replayed that many times faster than it
+/// was recorded). Each file's people are tracks of their own; a track's last row tells
+/// the daemon the person left.
 ///
 /// Example (cliffd --map thor1=../shared/data/thor1/cliffmap.csv --learn thor1):
 ///
@@ -51,6 +54,18 @@ struct Args {
     /// Rows per request (at most 4096; the daemon's --max-observe-rows may be lower).
     #[arg(long, default_value_t = 512)]
     rows_per_request: usize,
+
+    /// Send the rows of each window of this many seconds of recording time together (a
+    /// window of more than --rows-per-request rows in several requests), as a tracker's
+    /// rows come.
+    #[arg(long, value_name = "S", conflicts_with = "rate")]
+    every_s: Option<f64>,
+
+    /// Replay the recording this many times faster than real time: each window of
+    /// --every-s is sent once its end has come (1: as recorded). The last line says how
+    /// late the requests went out.
+    #[arg(long, value_name = "X", requires = "every_s", conflicts_with = "rate")]
+    speed: Option<f64>,
 
     /// iceoryx2 service name of the daemon.
     #[arg(long, default_value = cliff_client::DEFAULT_SERVICE)]
@@ -133,6 +148,13 @@ fn run(a: Args) -> Result<(), String> {
             "--rate {r}: must be a positive number of rows per second"
         ));
     }
+    for (name, v) in [("--every-s", a.every_s), ("--speed", a.speed)] {
+        if let Some(v) = v
+            && !(v.is_finite() && v > 0.0)
+        {
+            return Err(format!("{name} {v}: must be a positive number"));
+        }
+    }
     if !(a.give_up_s.is_finite() && a.give_up_s > 0.0) {
         return Err(format!("--give-up-s {}: must be positive", a.give_up_s));
     }
@@ -184,19 +206,36 @@ fn run(a: Args) -> Result<(), String> {
     let mut last_progress = Instant::now();
     // lowered when a request holds more rows than the daemon's budget lets through at once
     let mut per_request = a.rows_per_request;
+    // how late each window went out after its time had come (s), with --speed
+    let mut late: Vec<f64> = Vec::new();
+    let t0 = feed.span().map_or(0.0, |(a, _)| a);
     while sent < feed.len() {
+        let mut due = None;
         if let Some(rate) = a.rate {
             // the rows sent so far may not run ahead of the rate
-            let due = start + Duration::from_secs_f64(sent as f64 / rate);
-            if let Some(wait) = due.checked_duration_since(Instant::now()) {
+            due = Some(start + Duration::from_secs_f64(sent as f64 / rate));
+        }
+        let n = match (a.rate, a.every_s) {
+            // at low rates, requests of about a tenth of a second's rows
+            (Some(rate), _) => per_request.min(((rate / 10.0).ceil() as usize).max(1)),
+            (None, Some(every)) => {
+                let (end, close) = feed.window(sent, every);
+                if let Some(speed) = a.speed {
+                    due = Some(start + Duration::from_secs_f64((close - t0) / speed));
+                }
+                per_request.min(end - sent)
+            }
+            (None, None) => per_request,
+        };
+        if let Some(due) = due {
+            let now = Instant::now();
+            if let Some(wait) = due.checked_duration_since(now) {
                 std::thread::sleep(wait);
             }
+            if a.speed.is_some() {
+                late.push(now.saturating_duration_since(due).as_secs_f64());
+            }
         }
-        let n = match a.rate {
-            // at low rates, requests of about a tenth of a second's rows
-            Some(rate) => per_request.min(((rate / 10.0).ceil() as usize).max(1)),
-            None => per_request,
-        };
         feed.request(sent, n, &mut rows);
         request.clear();
         fill(&mut request, &rows);
@@ -247,6 +286,21 @@ fn run(a: Args) -> Result<(), String> {
         a.map,
         counts.version
     );
+    if let (Some(every), Some(speed)) = (a.every_s, a.speed) {
+        late.sort_by(f64::total_cmp);
+        let ms = |q: f64| {
+            1e3 * late
+                .get(((late.len() as f64 - 1.0) * q) as usize)
+                .unwrap_or(&0.0)
+        };
+        println!(
+            "streamed in windows of {every} s of recording time at {speed}x: {} requests, sent after their time by {:.1} ms median, {:.1} ms p99, {:.1} ms at most",
+            late.len(),
+            ms(0.5),
+            ms(0.99),
+            ms(1.0)
+        );
+    }
     Ok(())
 }
 
