@@ -49,9 +49,9 @@ const BETA1: f64 = 0.9;
 const BETA2: f64 = 0.999;
 const EPSILON: f64 = 1e-8;
 const DECAY: f64 = 1e-4;
-/// The smallest spread (m) an input is scaled by: inputs that hardly vary in the
-/// windows (walkers who all go straight) are not magnified into large weights.
-const SMALLEST_SPREAD: f64 = 0.01;
+/// Inputs that vary less than this (m) in the windows are taken as they are, not
+/// standardised (walkers who all go straight): no scale beyond 10^4.
+const SMALLEST_SPREAD: f64 = 1e-4;
 /// Each batch's weights enter the kept average with `1 - AVERAGE`.
 const AVERAGE: f64 = 0.999;
 /// Errors shorter than this (m) take this length in the loss's gradient.
@@ -115,8 +115,13 @@ pub(super) fn train_network(examples: &Examples, outputs: usize, fit: &NetworkFi
             .sum::<f64>()
             / n.max(1) as f64;
         mean[i] = m;
-        // an input that hardly varies (a centimetre) is not magnified beyond that
-        scale[i] = 1.0 / var.sqrt().max(SMALLEST_SPREAD);
+        // an input that does not vary (walkers who all go straight) is not magnified
+        let sd = var.sqrt();
+        scale[i] = if sd < SMALLEST_SPREAD {
+            1.0
+        } else {
+            1.0 / (sd + 1e-6)
+        };
     }
     let inputs: Vec<[f64; INPUTS]> = examples
         .features
