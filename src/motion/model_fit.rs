@@ -379,7 +379,6 @@ pub fn fit_motion_model_sources(
     let zero = vec![[0.0; 3]; steps];
     let mut model = MotionModel::new(weights.clone(), zero, info.clone()).map_err(invalid)?;
     if let Some(net) = &fit.network {
-        let total: usize = per_source.iter().map(|s| s.count[0]).sum();
         let examples = network_examples(sources, &per_source, &model, fit, total, &weight);
         let network = train_network(&examples, 2 * steps, net);
         model = model.with_network(network).map_err(invalid)?;

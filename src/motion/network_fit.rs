@@ -13,6 +13,8 @@
 //! starting weights come from a seeded generator and every sum runs in one order: the
 //! same windows and seed give the same network on the same machine.
 
+use std::ops::Range;
+
 use rand::SeedableRng;
 use rand::seq::SliceRandom;
 use rand_distr::{Distribution, StandardNormal};
@@ -74,28 +76,23 @@ impl Examples {
     }
 }
 
-/// The network's weights and, for training, their gradients and Adam moments, all in
-/// one layout: `w1 b1 w2 b2 w3 b3`.
-struct Params {
-    hidden: usize,
-    outputs: usize,
-    values: Vec<f64>,
+/// Where each part of the network lies in one flat vector of values (the weights, and
+/// for training their gradients and Adam moments): `w1 b1 w2 b2 w3 b3`.
+struct Layout {
+    parts: [Range<usize>; 6],
+    len: usize,
 }
 
-impl Params {
-    fn offsets(&self) -> [usize; 7] {
-        let (h, o) = (self.hidden, self.outputs);
+impl Layout {
+    fn new(hidden: usize, outputs: usize) -> Self {
+        let (h, o) = (hidden, outputs);
         let sizes = [INPUTS * h, h, h * h, h, h * o, o];
-        let mut at = [0; 7];
-        for (i, s) in sizes.iter().enumerate() {
-            at[i + 1] = at[i] + s;
-        }
-        at
-    }
-
-    fn parts(values: &[f64], at: &[usize; 7]) -> [std::ops::Range<usize>; 6] {
-        debug_assert_eq!(values.len(), at[6]);
-        std::array::from_fn(|i| at[i]..at[i + 1])
+        let mut start = 0;
+        let parts = sizes.map(|size| {
+            start += size;
+            start - size..start
+        });
+        Layout { parts, len: start }
     }
 }
 
@@ -129,41 +126,36 @@ pub(super) fn train_network(examples: &Examples, outputs: usize, fit: &NetworkFi
         .map(|f| std::array::from_fn(|i| (f[i] - mean[i]) * scale[i]))
         .collect();
 
-    let mut p = Params {
-        hidden: h,
-        outputs,
-        values: Vec::new(),
-    };
-    let at = p.offsets();
-    p.values = vec![0.0; at[6]];
+    let layout = Layout::new(h, outputs);
+    let mut values = vec![0.0; layout.len];
     let mut rng = Xoshiro256PlusPlus::seed_from_u64(fit.seed);
     {
-        let [w1, _, w2, _, _, _] = Params::parts(&p.values, &at);
+        let [w1, _, w2, _, _, _] = layout.parts.clone();
         let (s1, s2) = ((2.0 / INPUTS as f64).sqrt(), (2.0 / h as f64).sqrt());
-        for v in &mut p.values[w1] {
+        for v in &mut values[w1] {
             let z: f64 = StandardNormal.sample(&mut rng);
             *v = s1 * z;
         }
-        for v in &mut p.values[w2] {
+        for v in &mut values[w2] {
             let z: f64 = StandardNormal.sample(&mut rng);
             *v = s2 * z;
         }
     }
     let is_weight: Vec<bool> = {
-        let mut w = vec![false; at[6]];
+        let mut w = vec![false; layout.len];
         for part in [0, 2, 4] {
-            w[at[part]..at[part + 1]].iter_mut().for_each(|v| *v = true);
+            w[layout.parts[part].clone()].fill(true);
         }
         w
     };
-    let mut grad = vec![0.0; at[6]];
-    let mut m1 = vec![0.0; at[6]];
-    let mut m2 = vec![0.0; at[6]];
+    let mut grad = vec![0.0; layout.len];
+    let mut m1 = vec![0.0; layout.len];
+    let mut m2 = vec![0.0; layout.len];
     let mut order: Vec<usize> = (0..n).collect();
     let mut step = 0i32;
     let mut scratch = Scratch::new(h, outputs);
     // the weights kept: an exponential moving average of the iterates
-    let mut average = p.values.clone();
+    let mut average = values.clone();
     for _ in 0..fit.epochs {
         order.shuffle(&mut rng);
         for batch in order.chunks(BATCH) {
@@ -172,8 +164,8 @@ pub(super) fn train_network(examples: &Examples, outputs: usize, fit: &NetworkFi
                 let y = &examples.targets[e * outputs..(e + 1) * outputs];
                 let share = examples.weight[e] / batch.len() as f64;
                 scratch.backward(
-                    &p.values,
-                    &at,
+                    &values,
+                    &layout,
                     &inputs[e],
                     y,
                     examples.reach[e],
@@ -183,27 +175,21 @@ pub(super) fn train_network(examples: &Examples, outputs: usize, fit: &NetworkFi
             }
             step += 1;
             let (c1, c2) = (1.0 - BETA1.powi(step), 1.0 - BETA2.powi(step));
-            for i in 0..at[6] {
-                let g = grad[i]
-                    + if is_weight[i] {
-                        DECAY * p.values[i]
-                    } else {
-                        0.0
-                    };
+            for i in 0..layout.len {
+                let g = grad[i] + if is_weight[i] { DECAY * values[i] } else { 0.0 };
                 m1[i] = BETA1 * m1[i] + (1.0 - BETA1) * g;
                 m2[i] = BETA2 * m2[i] + (1.0 - BETA2) * g * g;
-                p.values[i] -= LEARNING_RATE * (m1[i] / c1) / ((m2[i] / c2).sqrt() + EPSILON);
+                values[i] -= LEARNING_RATE * (m1[i] / c1) / ((m2[i] / c2).sqrt() + EPSILON);
             }
             // short runs: the average follows the early weights less
             let keep = AVERAGE.min((1.0 + step as f64) / (10.0 + step as f64));
-            for (a, v) in average.iter_mut().zip(&p.values) {
+            for (a, v) in average.iter_mut().zip(&values) {
                 *a = keep * *a + (1.0 - keep) * v;
             }
         }
     }
-    p.values = average;
-    let [w1, b1, w2, b2, w3, b3] = Params::parts(&p.values, &at);
-    let single = |r: std::ops::Range<usize>| p.values[r].iter().map(|v| *v as f32).collect();
+    let [w1, b1, w2, b2, w3, b3] = layout.parts;
+    let single = |r: Range<usize>| average[r].iter().map(|v| *v as f32).collect();
     Network {
         hidden: h,
         outputs,
@@ -245,14 +231,14 @@ impl Scratch {
     fn backward(
         &mut self,
         values: &[f64],
-        at: &[usize; 7],
+        layout: &Layout,
         x: &[f64; INPUTS],
         y: &[f64],
         reach: usize,
         share: f64,
         grad: &mut [f64],
     ) {
-        let [w1, b1, w2, b2, w3, b3] = Params::parts(values, at);
+        let [w1, b1, w2, b2, w3, b3] = layout.parts.clone();
         let o = self.out.len();
         let h = self.h1.len();
         layer(x, &values[w1.clone()], &values[b1.clone()], &mut self.h1);
