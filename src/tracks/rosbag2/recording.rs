@@ -491,4 +491,26 @@ mod tests {
         let e = read(&bad, None).unwrap_err();
         assert!(e.contains("not a readable rosbag2 MCAP recording"), "{e}");
     }
+
+    #[test]
+    fn a_string_claiming_four_gigabytes_inside_a_record_is_refused_not_reserved() {
+        // the schema record's name: its u32 length (after opcode, record length and the
+        // schema id) claims nearly 4 GiB in a record of a few dozen bytes
+        let mut bytes = mcap(
+            &[("/people", people::NAME, people(0.5, &[]))],
+            Layout::NoChunks,
+        );
+        let header_len = u64::from_le_bytes(bytes[9..17].try_into().unwrap()) as usize;
+        let at = 8 + 9 + header_len;
+        assert_eq!(bytes[at], 0x03, "a schema record");
+        let name = at + 9 + 2;
+        assert_eq!(
+            u32::from_le_bytes(bytes[name..name + 4].try_into().unwrap()) as usize,
+            people::NAME.len()
+        );
+        bytes[name..name + 4].copy_from_slice(&0xFFFF_FFF0u32.to_le_bytes());
+        let e = read(&bytes, None).unwrap_err();
+        assert!(e.contains("name is longer than the record"), "{e}");
+        assert!(e.contains("not a readable rosbag2 MCAP recording"), "{e}");
+    }
 }
