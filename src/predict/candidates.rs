@@ -17,7 +17,7 @@ pub(super) struct Candidates {
     /// The candidates' [`rank_key`]s, sorted.
     pub(super) keys: Vec<u128>,
     /// Per step: the sums of the samples' x and y, and how many reach it (consensus).
-    pub(super) centre: Vec<[f64; 3]>,
+    pub(super) centre: Vec<[f64; 2]>,
     /// The candidates' lanes between the stretches of a pruned rollout.
     pub(super) lanes: Vec<Lane>,
     /// The candidates' projected reach at a checkpoint of a pruned rollout.
