@@ -315,7 +315,8 @@ fn consensus_of(tracks: &[Point], lens: &[u32], scores: &mut [f32], centre: &mut
         let mut j = 0;
         while j + B <= most {
             let c = centre[j..j + B].as_flattened();
-            let mut d = [[0.0f64; B]; W];
+            // (each step's distances of the four samples side by side)
+            let mut d = [[0.0f64; W]; B];
             for l in 0..W {
                 // (the squares of x and y alike, then each step's sum and root)
                 let row = rows[l][j..j + B].as_flattened();
@@ -326,12 +327,12 @@ fn consensus_of(tracks: &[Point], lens: &[u32], scores: &mut [f32], centre: &mut
                 }
                 for i in 0..B {
                     let v = (sq[2 * i] + sq[2 * i + 1]).sqrt();
-                    d[l][i] = if j + i < len[l] { v } else { 0.0 };
+                    d[i][l] = if j + i < len[l] { v } else { 0.0 };
                 }
             }
-            for i in 0..B {
-                for l in 0..W {
-                    sum[l] += d[l][i];
+            for step in &d {
+                for (s, v) in sum.iter_mut().zip(step) {
+                    *s += v;
                 }
             }
             j += B;
