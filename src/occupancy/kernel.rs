@@ -7,6 +7,9 @@ use crate::math::fastmath::exp_neg_f32;
 
 use super::{OccupancyError, Stopped};
 
+/// The cells of an axis whose masses are worked out together (an AVX2 register of f32).
+const LANES: usize = 8;
+
 /// How samples become occupancy: the kernel's width and cut-off and what a stopped
 /// sample means.
 ///
@@ -160,9 +163,13 @@ pub fn normal_cdf(z: f64) -> f64 {
 /// Cells narrower than half a sigma take the density at the cell's centre times the
 /// cell's width, corrected by the series of the integral (`1 + d^2 (z^2 - 1) / 24 +
 /// d^4 (z^4 - 6 z^2 + 3) / 1920`, `d` the width in sigmas; what is left is below
-/// 1e-8 of the mass), the density from a branch-free single-precision exponential
-/// (each cell on its own, so the loop runs eight cells to a register on AVX2); wider
-/// cells take differences of the normal distribution function's table.
+/// 1e-8 of the mass). The densities come eight cells at a time (a register on AVX2):
+/// the first eight from a branch-free single-precision exponential, each later eight
+/// from the eight before by the ratio `exp(-8 d z - 32 d^2)` of a density eight cells
+/// on, itself carried on by the factor `exp(-64 d^2)` (two multiplications a cell
+/// instead of an exponential; the rounding this adds stays below 1e-6 of a mass over
+/// the cells a kernel reaches). Wider cells take differences of the normal
+/// distribution function's table.
 #[inline(always)]
 pub(super) fn axis_mass(
     mu: f32,
@@ -181,11 +188,38 @@ pub(super) fn axis_mass(
         let (a2, a4) = (d2 * (1.0 / 24.0), d4 * (1.0 / 1920.0));
         // the cell's width times the standard normal density's factor 1 / sqrt(2 pi)
         let scale = d * std::f32::consts::FRAC_1_SQRT_2 * 0.5 * std::f32::consts::FRAC_2_SQRT_PI;
-        for (i, m) in out.iter_mut().enumerate() {
-            let z = z0 + i as f32 * d;
+        let mass = |z: f32, density: f32| {
             let z2 = z * z;
-            let series = 1.0 + a2 * (z2 - 1.0) + a4 * (z2 * z2 - 6.0 * z2 + 3.0);
-            *m = scale * exp_neg_f32(-0.5 * z2) * series;
+            scale * density * (1.0 + a2 * (z2 - 1.0) + a4 * (z2 * z2 - 6.0 * z2 + 3.0))
+        };
+        let (chunks, tail) = out.as_chunks_mut::<LANES>();
+        let done = chunks.len() * LANES;
+        if !chunks.is_empty() {
+            // the densities of the first eight cells and their ratios eight cells on
+            // (above 1 left of the mean: the reciprocal of the exponential of minus it)
+            let mut density = [0.0f32; LANES];
+            let mut ratio = [0.0f32; LANES];
+            for l in 0..LANES {
+                let z = z0 + l as f32 * d;
+                density[l] = exp_neg_f32(-0.5 * z * z);
+                let x = -8.0 * d * z - 32.0 * d2;
+                let e = exp_neg_f32(-x.abs());
+                ratio[l] = if x > 0.0 { 1.0 / e } else { e };
+            }
+            let step = exp_neg_f32(-64.0 * d2);
+            let mut z: [f32; LANES] = std::array::from_fn(|l| z0 + l as f32 * d);
+            for chunk in chunks.iter_mut() {
+                for l in 0..LANES {
+                    chunk[l] = mass(z[l], density[l]);
+                    density[l] *= ratio[l];
+                    ratio[l] *= step;
+                    z[l] += 8.0 * d;
+                }
+            }
+        }
+        for (i, m) in tail.iter_mut().enumerate() {
+            let z = z0 + (done + i) as f32 * d;
+            *m = mass(z, exp_neg_f32(-0.5 * z * z));
         }
         return;
     }
@@ -263,9 +297,13 @@ mod tests {
 
     #[test]
     fn axis_masses_integrate_the_density_over_each_cell() {
-        // narrow cells (the series) and wide ones (the table)
+        // narrow cells (the series: eight cells from the exponential, each later eight
+        // from the eight before, and a tail of cells on their own) and wide ones (the
+        // table)
         for (mu, sigma, origin, res) in [
             (0.37, 0.45, -2.0, 0.1),
+            (-1.9, 0.3, -2.0, 0.05),
+            (0.21, 0.3, -1.3, 0.05),
             (0.37, 0.3, -4.0, 0.25),
             (1.1, 0.3, -5.0, 0.5),
         ] {

@@ -74,21 +74,29 @@ pub(super) fn extent(points: &[[f32; 2]]) -> Option<([f32; 2], [f32; 2])> {
 }
 
 /// One sample's kernel on a tile: the box of grid cells it covers, the masses of its
-/// rows (`my`), and the masses of its columns (`mx`) from its first column (the tile
-/// column `lead`) over a whole number of eight cells (zero past the box).
+/// rows (`my`, the first `rows`), and the masses of its columns (`mx`, the first
+/// `cols`) from its first column (the tile column `lead`) over a whole number of eight
+/// cells (zero past the box). `mx` and `my` keep the length [`size_for`](Self::size_for)
+/// gave them: a kernel writes its part.
 #[derive(Debug, Clone, Default)]
 pub(super) struct Kernel {
     pub cells: Option<CellBox>,
     mx: Vec<f32>,
     my: Vec<f32>,
+    cols: usize,
+    rows: usize,
     lead: usize,
 }
 
 impl Kernel {
     /// Room for any kernel on the grid (no allocation when there is).
     pub fn size_for(&mut self, grid: &GridSpec) -> Result<(), TryReserveError> {
-        grow(&mut self.mx, lanes_for(grid.width) + LANES)?;
-        grow(&mut self.my, lanes_for(grid.height))
+        let (cols, rows) = (lanes_for(grid.width) + LANES, lanes_for(grid.height));
+        grow(&mut self.mx, cols)?;
+        grow(&mut self.my, rows)?;
+        self.mx.resize(self.mx.len().max(cols), 0.0);
+        self.my.resize(self.my.len().max(rows), 0.0);
+        Ok(())
     }
 
     /// The kernel of width `sigma` (cut at `reach`, m) of a sample at `p`, placed on a
@@ -120,15 +128,19 @@ impl Kernel {
         // cells past the kernel's box then cleared: it is cut at `reach`
         self.lead = c0 - area.c0;
         let cols = c1 - c0 + 1;
-        self.mx.clear();
-        self.mx.resize(lanes_for(cols), 0.0);
-        axis_mass(p[0], sigma, ox, res, c0, &mut self.mx);
-        self.mx[cols..].fill(0.0);
-        let rows = r1 - r0 + 1;
-        self.my.clear();
-        self.my.resize(lanes_for(rows), 0.0);
-        axis_mass(p[1], sigma, oy, res, r0, &mut self.my);
-        self.my.truncate(rows);
+        self.cols = lanes_for(cols);
+        let mx = &mut self.mx[..self.cols];
+        axis_mass(p[0], sigma, ox, res, c0, mx);
+        mx[cols..].fill(0.0);
+        self.rows = r1 - r0 + 1;
+        axis_mass(
+            p[1],
+            sigma,
+            oy,
+            res,
+            r0,
+            &mut self.my[..lanes_for(self.rows)],
+        );
         self.cells = Some(CellBox { r0, r1, c0, c1 });
         true
     }
@@ -183,12 +195,7 @@ impl Tile {
     #[inline(always)]
     fn span(&self, k: &Kernel) -> Option<(usize, usize, usize, usize)> {
         let (area, cells) = (self.area?, k.cells?);
-        Some((
-            cells.r0 - area.r0,
-            cells.r1 - cells.r0 + 1,
-            k.lead,
-            k.mx.len(),
-        ))
+        Some((cells.r0 - area.r0, k.rows, k.lead, k.cols))
     }
 
     /// Add `w` times the kernel (the outer product of its row and column masses).
@@ -197,14 +204,14 @@ impl Tile {
         let Some((r0, rows, c0, cols)) = self.span(k) else {
             return;
         };
-        for (r, &fy) in (r0..r0 + rows).zip(&k.my) {
+        for (r, &fy) in (r0..r0 + rows).zip(&k.my[..rows]) {
             let wy = w * fy;
             let row = &mut self.cells[r * self.stride + c0..r * self.stride + c0 + cols];
             for (o, m) in row
                 .as_chunks_mut::<LANES>()
                 .0
                 .iter_mut()
-                .zip(k.mx.as_chunks::<LANES>().0)
+                .zip(k.mx[..cols].as_chunks::<LANES>().0)
             {
                 // (through registers: the eight loads, then the eight stores)
                 let (mut v, m) = (*o, *m);
@@ -223,13 +230,13 @@ impl Tile {
         let Some((r0, rows, c0, cols)) = self.span(k) else {
             return;
         };
-        for (r, &fy) in (r0..r0 + rows).zip(&k.my) {
+        for (r, &fy) in (r0..r0 + rows).zip(&k.my[..rows]) {
             let row = &mut self.cells[r * self.stride + c0..r * self.stride + c0 + cols];
             for (o, m) in row
                 .as_chunks_mut::<LANES>()
                 .0
                 .iter_mut()
-                .zip(k.mx.as_chunks::<LANES>().0)
+                .zip(k.mx[..cols].as_chunks::<LANES>().0)
             {
                 let (mut v, m) = (*o, *m);
                 for j in 0..LANES {
