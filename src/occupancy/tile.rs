@@ -204,24 +204,57 @@ impl Tile {
         let Some((r0, rows, c0, cols)) = self.span(k) else {
             return;
         };
+        // a kernel's columns held in registers for all its rows
+        match cols / LANES {
+            1 => self.add_rows::<1>(k, w, r0, rows, c0),
+            2 => self.add_rows::<2>(k, w, r0, rows, c0),
+            3 => self.add_rows::<3>(k, w, r0, rows, c0),
+            4 => self.add_rows::<4>(k, w, r0, rows, c0),
+            5 => self.add_rows::<5>(k, w, r0, rows, c0),
+            6 => self.add_rows::<6>(k, w, r0, rows, c0),
+            _ => {
+                for (r, &fy) in (r0..r0 + rows).zip(&k.my[..rows]) {
+                    let wy = w * fy;
+                    let row = &mut self.cells[r * self.stride + c0..r * self.stride + c0 + cols];
+                    for (o, m) in row
+                        .as_chunks_mut::<LANES>()
+                        .0
+                        .iter_mut()
+                        .zip(k.mx[..cols].as_chunks::<LANES>().0)
+                    {
+                        // (through registers: the eight loads, then the eight stores)
+                        let (mut v, m) = (*o, *m);
+                        for j in 0..LANES {
+                            v[j] += wy * m[j];
+                        }
+                        *o = v;
+                    }
+                }
+            }
+        }
+        self.touch((r0, r0 + rows - 1), (c0, c0 + cols - 1));
+    }
+
+    /// [`add`](Self::add) for a kernel `N` registers wide: its column masses loaded
+    /// once.
+    #[inline(always)]
+    fn add_rows<const N: usize>(&mut self, k: &Kernel, w: f32, r0: usize, rows: usize, c0: usize) {
+        let mut m = [[0.0f32; LANES]; N];
+        for (m, x) in m.iter_mut().zip(k.mx[..N * LANES].as_chunks::<LANES>().0) {
+            *m = *x;
+        }
         for (r, &fy) in (r0..r0 + rows).zip(&k.my[..rows]) {
             let wy = w * fy;
-            let row = &mut self.cells[r * self.stride + c0..r * self.stride + c0 + cols];
-            for (o, m) in row
-                .as_chunks_mut::<LANES>()
-                .0
-                .iter_mut()
-                .zip(k.mx[..cols].as_chunks::<LANES>().0)
-            {
-                // (through registers: the eight loads, then the eight stores)
-                let (mut v, m) = (*o, *m);
+            let at = r * self.stride + c0;
+            let row = self.cells[at..at + N * LANES].as_chunks_mut::<LANES>().0;
+            for (o, m) in row.iter_mut().zip(&m) {
+                let mut v = *o;
                 for j in 0..LANES {
                     v[j] += wy * m[j];
                 }
                 *o = v;
             }
         }
-        self.touch((r0, r0 + rows - 1), (c0, c0 + cols - 1));
     }
 
     /// Raise each cell to the kernel's mass there where that is larger.
