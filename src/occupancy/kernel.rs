@@ -88,14 +88,24 @@ impl Settings {
     /// The kernel's sigma for `n` samples whose positions have the given spread (the
     /// per-axis standard deviation, m).
     pub fn sigma(&self, spread: f64, n: usize) -> f64 {
+        self.sigma_rooted(spread, n, silverman_root(n))
+    }
+
+    /// [`sigma`](Self::sigma) given `root`, the [`silverman_root`] of `n`.
+    pub(super) fn sigma_rooted(&self, spread: f64, n: usize, root: f64) -> f64 {
         let silverman = if n > 0 {
-            self.bandwidth_scale * spread * (n as f64).powf(-1.0 / 6.0)
+            self.bandwidth_scale * spread * root
         } else {
             0.0
         };
         let bw = silverman.max(self.min_bandwidth);
         (self.person_radius * self.person_radius + bw * bw).sqrt()
     }
+}
+
+/// `n^(-1/6)`, Silverman's factor on the spread of `n` samples in two dimensions.
+pub(super) fn silverman_root(n: usize) -> f64 {
+    (n as f64).powf(-1.0 / 6.0)
 }
 
 /// The per-axis standard deviation of points about their mean: the root mean square

@@ -3,7 +3,7 @@
 
 use std::ops::Range;
 
-use super::kernel::spread;
+use super::kernel::{silverman_root, spread};
 use super::levels::{FACTORS, Levels};
 use super::samples::TimeIndex;
 use super::tile::{CellBox, Kernel, Tile, extent, grow, reach_box};
@@ -214,6 +214,8 @@ impl Occupancy {
         }
         let k = samples.shape().1;
         let n = grid.cells();
+        // Silverman's factor for the last number of samples that reached a time
+        let mut root = (0, 0.0);
         for li in 0..times.len() {
             let ti = self.scratch.index[li];
             let mut empty = std::mem::take(&mut self.scratch.empty);
@@ -236,7 +238,10 @@ impl Occupancy {
                     Stopped::Renormalise => 1.0 / reached as f32,
                     Stopped::Drop | Stopped::Hold => 1.0 / k as f32,
                 };
-                let sigma = settings.sigma(spread(&sc.points), reached);
+                if root.0 != reached {
+                    root = (reached, silverman_root(reached));
+                }
+                let sigma = settings.sigma_rooted(spread(&sc.points), reached, root.1);
                 let level = Levels::level_for(grid, sigma).filter(|_| !self.exact);
                 match level.and_then(|l| Some((l, sc.levels.level(l)?))) {
                     Some((l, (coarse, layer))) => {

@@ -170,7 +170,6 @@ fn upsample<const F: usize>(
     // the coarse columns c0 - 2 ..= c1 + 2 and rows r0 - 2 ..= r1 + 2 (clamped to the
     // grid); the cells from the centre of coarse column c0 - 1 to that of c1 + 1
     let n = t.c1 - t.c0 + 5;
-    let col = |k: usize| (t.c0 + k).saturating_sub(2).min(g.width - 1);
     let first = (F * t.c0) as isize - (F / 2) as isize; // the centre of c0 - 1, in cells
     let c_lo = first.max(0) as usize;
     let c_hi = (F * (t.c1 + 1) + F / 2).min(grid.width); // exclusive
@@ -179,13 +178,22 @@ fn upsample<const F: usize>(
     let side: [[f32; 4]; F] = std::array::from_fn(|m| weights::<F>((m as f32 + 0.5) / F as f32));
     let span = F * (n - 3);
     let rows = t.r1 - t.r0 + 5;
-    across.clear();
-    across.resize(rows * span, 0.0);
+    // (each row of `across` is written whole before it is read)
+    if across.len() < rows * span {
+        across.resize(rows * span, 0.0);
+    }
+    // the columns c0 - 2 ..= c1 + 2: those left of the grid as its first, those right
+    // of it as its last
+    let (left, inside) = (2usize.saturating_sub(t.c0), t.c0.saturating_sub(2));
+    let end = (t.c1 + 2).min(g.width - 1);
+    let right = n - left - (end + 1 - inside);
     for q in 0..rows {
         let j = (t.r0 + q).saturating_sub(2).min(g.height - 1);
         let src = &coarse[j * g.width..(j + 1) * g.width];
         row.clear();
-        row.extend((0..n).map(|k| src[col(k)]));
+        row.extend(std::iter::repeat_n(src[0], left));
+        row.extend_from_slice(&src[inside..=end]);
+        row.extend(std::iter::repeat_n(src[g.width - 1], right));
         let out = &mut across[q * span..(q + 1) * span];
         // the cells between the centres of coarse columns c0 - 2 + k + 1 and + 2: F
         // cells at (m + 0.5) / F of the way
