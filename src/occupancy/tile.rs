@@ -7,7 +7,7 @@
 use std::collections::TryReserveError;
 
 use super::GridSpec;
-use super::kernel::{axis_box, axis_mass, axis_span};
+use super::kernel::{AxisNormal, axis_box, axis_span};
 
 /// The cells of a tile row are handled this many at a time (an AVX2 register of f32).
 const LANES: usize = 8;
@@ -86,6 +86,8 @@ pub(super) struct Kernel {
     cols: usize,
     rows: usize,
     lead: usize,
+    /// The normal of the last kernel's width on the last grid's cells.
+    axis: AxisNormal,
 }
 
 impl Kernel {
@@ -129,18 +131,15 @@ impl Kernel {
         self.lead = c0 - area.c0;
         let cols = c1 - c0 + 1;
         self.cols = lanes_for(cols);
+        if self.axis.sigma != sigma || self.axis.resolution != res {
+            self.axis = AxisNormal::new(sigma, res);
+        }
         let mx = &mut self.mx[..self.cols];
-        axis_mass(p[0], sigma, ox, res, c0, mx);
+        self.axis.mass(p[0], ox, c0, mx);
         mx[cols..].fill(0.0);
         self.rows = r1 - r0 + 1;
-        axis_mass(
-            p[1],
-            sigma,
-            oy,
-            res,
-            r0,
-            &mut self.my[..lanes_for(self.rows)],
-        );
+        self.axis
+            .mass(p[1], oy, r0, &mut self.my[..lanes_for(self.rows)]);
         self.cells = Some(CellBox { r0, r1, c0, c1 });
         true
     }
@@ -349,6 +348,7 @@ impl Tile {
 
 #[cfg(test)]
 mod tests {
+    use super::super::kernel::axis_mass;
     use super::*;
 
     #[test]
