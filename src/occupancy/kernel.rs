@@ -3,7 +3,7 @@
 
 use std::sync::OnceLock;
 
-use crate::math::fastmath::exp_neg_f32;
+use crate::math::fastmath::{exp_f32, exp_neg_f32};
 
 use super::{OccupancyError, Stopped};
 
@@ -255,16 +255,12 @@ impl AxisNormal {
             let done = chunks.len() * LANES;
             if !chunks.is_empty() {
                 // the masses of the first eight cells and their ratios eight cells on
-                // (above 1 left of the mean: the reciprocal of the exponential of
-                // minus it)
                 let mut mass = [0.0f32; LANES];
                 let mut ratio = [0.0f32; LANES];
                 for l in 0..LANES {
                     let z = z0 + l as f32 * d;
                     mass[l] = self.scale * exp_neg_f32(-0.5 * z * z);
-                    let x = -8.0 * d * z - 32.0 * d2;
-                    let e = exp_neg_f32(-x.abs());
-                    ratio[l] = if x > 0.0 { 1.0 / e } else { e };
+                    ratio[l] = exp_f32(-8.0 * d * z - 32.0 * d2);
                 }
                 for chunk in chunks.iter_mut() {
                     for l in 0..LANES {
