@@ -263,8 +263,8 @@ impl AxisNormal {
                     ratio[l] = exp_f32(-8.0 * d * z - 32.0 * d2);
                 }
                 for chunk in chunks.iter_mut() {
+                    *chunk = mass;
                     for l in 0..LANES {
-                        chunk[l] = mass[l];
                         mass[l] *= ratio[l];
                         ratio[l] *= self.step;
                     }
