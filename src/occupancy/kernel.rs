@@ -319,8 +319,10 @@ pub(super) fn axis_span(
     resolution: f32,
     cells: usize,
 ) -> Option<(usize, usize)> {
-    let first = ((lo - reach - origin) / resolution).floor();
-    let last = ((hi + reach - origin) / resolution).floor();
+    // (by the reciprocal: a division per edge would cost more than the rest of it)
+    let inv = 1.0 / resolution;
+    let first = ((lo - reach - origin) * inv).floor();
+    let last = ((hi + reach - origin) * inv).floor();
     if !(last >= 0.0 && first < cells as f32) {
         return None;
     }
