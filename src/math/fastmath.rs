@@ -201,26 +201,7 @@ pub fn exp_neg_f32(x: f32) -> f32 {
 /// [`exp_neg_f32`] with the multiply-adds of `M` (fused on the AVX2 path).
 #[inline(always)]
 pub(crate) fn exp_neg_f32_with<M: MulAdd>(x: f32) -> f32 {
-    const MAGIC: f32 = 12_582_912.0;
-    const LN2_HI: f32 = 0.693_145_75;
-    const LN2_LO: f32 = 1.428_606_8e-6;
-    let m = M::madd32;
-    let xc = x.clamp(-87.0, 0.0);
-    let t = xc * std::f32::consts::LOG2_E + MAGIC;
-    let k = t - MAGIC;
-    let r = m(-k, LN2_LO, m(-k, LN2_HI, xc));
-    let r2 = r * r;
-    let r4 = r2 * r2;
-    // ((1 + r) + r2 (1/2 + r/6)) + r4 ((1/24 + r/120) + r2/720)
-    let p = m(
-        r4,
-        m(r2, 1.0 / 720.0, m(r, 1.0 / 120.0, 1.0 / 24.0)),
-        m(r2, m(r, 1.0 / 6.0, 0.5), 1.0 + r),
-    );
-    let ki = t.to_bits().wrapping_sub(MAGIC.to_bits());
-    let scale = f32::from_bits(ki.wrapping_add(127) << 23);
-    let y = p * scale;
-    if x < -87.0 { 0.0 } else { y }
+    exp_up_to::<M>(x, 0.0)
 }
 
 /// `e^x` in single precision for `x <= 87` (0 below -87), within 3e-7 relative: the
@@ -228,16 +209,24 @@ pub(crate) fn exp_neg_f32_with<M: MulAdd>(x: f32) -> f32 {
 /// positive `x`).
 #[inline(always)]
 pub fn exp_f32(x: f32) -> f32 {
+    exp_up_to::<Separate>(x, 87.0)
+}
+
+/// `e^x` for `x` clamped to `[-87, hi]` (0 below -87) with the multiply-adds of `M`:
+/// `2^k` times a degree-6 polynomial of the rest after a two-part `ln 2` reduction.
+#[inline(always)]
+fn exp_up_to<M: MulAdd>(x: f32, hi: f32) -> f32 {
     const MAGIC: f32 = 12_582_912.0;
     const LN2_HI: f32 = 0.693_145_75;
     const LN2_LO: f32 = 1.428_606_8e-6;
-    let m = Separate::madd32;
-    let xc = x.clamp(-87.0, 87.0);
+    let m = M::madd32;
+    let xc = x.clamp(-87.0, hi);
     let t = xc * std::f32::consts::LOG2_E + MAGIC;
     let k = t - MAGIC;
     let r = m(-k, LN2_LO, m(-k, LN2_HI, xc));
     let r2 = r * r;
     let r4 = r2 * r2;
+    // ((1 + r) + r2 (1/2 + r/6)) + r4 ((1/24 + r/120) + r2/720)
     let p = m(
         r4,
         m(r2, 1.0 / 720.0, m(r, 1.0 / 120.0, 1.0 / 24.0)),

@@ -211,25 +211,14 @@ impl Tile {
             4 => self.add_rows::<4>(k, w, r0, rows, c0),
             5 => self.add_rows::<5>(k, w, r0, rows, c0),
             6 => self.add_rows::<6>(k, w, r0, rows, c0),
-            _ => {
-                for (r, &fy) in (r0..r0 + rows).zip(&k.my[..rows]) {
-                    let wy = w * fy;
-                    let row = &mut self.cells[r * self.stride + c0..r * self.stride + c0 + cols];
-                    for (o, m) in row
-                        .as_chunks_mut::<LANES>()
-                        .0
-                        .iter_mut()
-                        .zip(k.mx[..cols].as_chunks::<LANES>().0)
-                    {
-                        // (through registers: the eight loads, then the eight stores)
-                        let (mut v, m) = (*o, *m);
-                        for j in 0..LANES {
-                            v[j] += wy * m[j];
-                        }
-                        *o = v;
-                    }
+            _ => self.each_chunk(k, (r0, rows, c0, cols), |fy, o, m| {
+                // (through registers: the eight loads, then the eight stores)
+                let (wy, mut v) = (w * fy, *o);
+                for j in 0..LANES {
+                    v[j] += wy * m[j];
                 }
-            }
+                *o = v;
+            }),
         }
         self.touch((r0, r0 + rows - 1), (c0, c0 + cols - 1));
     }
@@ -256,12 +245,15 @@ impl Tile {
         }
     }
 
-    /// Raise each cell to the kernel's mass there where that is larger.
+    /// `f(row mass, eight cells, their column masses)` for each eight cells of the
+    /// kernel's span `(first row, rows, first column, columns)` ([`span`](Self::span)).
     #[inline(always)]
-    pub fn raise(&mut self, k: &Kernel) {
-        let Some((r0, rows, c0, cols)) = self.span(k) else {
-            return;
-        };
+    fn each_chunk(
+        &mut self,
+        k: &Kernel,
+        (r0, rows, c0, cols): (usize, usize, usize, usize),
+        mut f: impl FnMut(f32, &mut [f32; LANES], &[f32; LANES]),
+    ) {
         for (r, &fy) in (r0..r0 + rows).zip(&k.my[..rows]) {
             let row = &mut self.cells[r * self.stride + c0..r * self.stride + c0 + cols];
             for (o, m) in row
@@ -270,13 +262,24 @@ impl Tile {
                 .iter_mut()
                 .zip(k.mx[..cols].as_chunks::<LANES>().0)
             {
-                let (mut v, m) = (*o, *m);
-                for j in 0..LANES {
-                    v[j] = v[j].max(fy * m[j]);
-                }
-                *o = v;
+                f(fy, o, m);
             }
         }
+    }
+
+    /// Raise each cell to the kernel's mass there where that is larger.
+    #[inline(always)]
+    pub fn raise(&mut self, k: &Kernel) {
+        let Some((r0, rows, c0, cols)) = self.span(k) else {
+            return;
+        };
+        self.each_chunk(k, (r0, rows, c0, cols), |fy, o, m| {
+            let mut v = *o;
+            for j in 0..LANES {
+                v[j] = v[j].max(fy * m[j]);
+            }
+            *o = v;
+        });
         self.touch((r0, r0 + rows - 1), (c0, c0 + cols - 1));
     }
 
