@@ -53,6 +53,24 @@ fn thor1_map() -> String {
     format!("thor1={}", shared_data("thor1/cliffmap.csv").display())
 }
 
+/// A cliffd in `ns` serving the THÖR1 map, learning it from observations (rows not
+/// rate-limited), and listening for zenoh on `port`; `extra` are further arguments.
+fn learning_daemon(ns: &Namespace, port: u16, extra: &[&str]) -> Daemon {
+    let (map, ep) = (thor1_map(), endpoint(port));
+    let mut args = vec![
+        "--map",
+        &map,
+        "--learn",
+        "thor1",
+        "--observe-rate",
+        "1000000",
+        "--zenoh",
+        &ep,
+    ];
+    args.extend_from_slice(extra);
+    Daemon::start(ns, &args)
+}
+
 fn rejection(r: Result<cliff_client::ObserveReply, Error>) -> cliff_client::Rejection {
     match r {
         Err(Error::Rejected(rej)) => rej,
@@ -76,21 +94,7 @@ fn thor1_request(map: &str, tracks: &[Track]) -> Request {
 fn remote_sessions_observe_with_the_local_meaning_and_budgets() {
     let ns = Namespace::new("zsite_obs");
     let ep = endpoint(PORT_OBSERVE);
-    let _daemon = Daemon::start(
-        &ns,
-        &[
-            "--map",
-            &thor1_map(),
-            "--learn",
-            "thor1",
-            "--observe-rate",
-            "1000000",
-            "--observe-tracks",
-            "40",
-            "--zenoh",
-            &ep,
-        ],
-    );
+    let _daemon = learning_daemon(&ns, PORT_OBSERVE, &["--observe-tracks", "40"]);
     let tracks = thor1_round2();
     let rows: u64 = tracks.iter().map(|t| t.rows.len() as u64).sum();
     let mut a = remote(PORT_OBSERVE);
@@ -350,21 +354,11 @@ fn the_c_abi_observes_over_zenoh_once_per_row() {
     use cliff_client::ffi::*;
     use std::ffi::{CStr, CString};
     let ns = Namespace::new("zsite_c");
-    let ep = endpoint(PORT_C);
-    let _daemon = Daemon::start(
-        &ns,
-        &[
-            "--map",
-            &thor1_map(),
-            "--learn",
-            "thor1",
-            "--observe-rate",
-            "1000000",
-            "--zenoh",
-            &ep,
-        ],
+    let _daemon = learning_daemon(&ns, PORT_C, &[]);
+    let (endpoint, service) = (
+        CString::new(endpoint(PORT_C)).unwrap(),
+        CString::new(SERVICE).unwrap(),
     );
-    let (endpoint, service) = (CString::new(ep).unwrap(), CString::new(SERVICE).unwrap());
     let map = CString::new("thor1").unwrap();
     let mut client = std::ptr::null_mut();
     // SAFETY: valid strings and out pointer; no configuration file
@@ -426,33 +420,23 @@ fn the_c_abi_observes_over_zenoh_once_per_row() {
 #[test]
 fn requests_whose_link_drops_are_sent_again_and_counted_once() {
     let ns = Namespace::new("zsite_cut");
-    let _daemon = Daemon::start(
-        &ns,
-        &[
-            "--map",
-            &thor1_map(),
-            "--learn",
-            "thor1",
-            "--observe-rate",
-            "1000000",
-            "--zenoh",
-            &endpoint(PORT_CUT),
-        ],
-    );
+    let _daemon = learning_daemon(&ns, PORT_CUT, &[]);
     let proxy = common::proxy::Proxy::start(PORT_CUT_PROXY, PORT_CUT);
     let mut robot = remote(PORT_CUT_PROXY);
     let tracks = thor1_round2();
     let predict = thor1_request("thor1", &tracks);
     robot.predict(&predict).expect("before any cut");
 
-    // the link is cut every few milliseconds while the robot predicts and observes
+    // the link is cut every 30 ms while the robot predicts and observes (cut every
+    // 15 ms with the file's other tests running beside it, a request's three attempts
+    // can all meet a cut: the client reports no daemon)
     let stop = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
     let cutter = {
         let stop = std::sync::Arc::clone(&stop);
         std::thread::spawn(move || {
             let mut cuts = 0;
             while !stop.load(std::sync::atomic::Ordering::Relaxed) {
-                std::thread::sleep(Duration::from_millis(15));
+                std::thread::sleep(Duration::from_millis(30));
                 cuts += proxy.cut();
             }
             (cuts, proxy.connections())
