@@ -16,7 +16,7 @@ pub(super) struct Candidates {
     pub(super) order: Vec<u32>,
     /// The candidates' [`rank_key`]s, sorted.
     pub(super) keys: Vec<u128>,
-    /// Per step: the sums of the samples' x and y, and how many reach it (consensus).
+    /// Per step: the mean x and y of the samples that reach it (consensus).
     pub(super) centre: Vec<[f64; 2]>,
     /// The candidates' lanes between the stretches of a pruned rollout.
     pub(super) lanes: Vec<Lane>,

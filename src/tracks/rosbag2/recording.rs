@@ -462,6 +462,16 @@ mod tests {
         assert_eq!(read(&two, Some("/b")).unwrap(), Vec::new());
     }
 
+    /// Where the first record after the header (a schema, checked) starts in an
+    /// unchunked file: past the magic (8 bytes) and the header record (opcode, length,
+    /// its bytes).
+    fn first_schema_record(bytes: &[u8]) -> usize {
+        let header_len = u64::from_le_bytes(bytes[9..17].try_into().unwrap()) as usize;
+        let at = 8 + 9 + header_len;
+        assert_eq!(bytes[at], 0x03, "a schema record");
+        at
+    }
+
     #[test]
     fn a_record_length_of_four_billion_is_refused_not_allocated() {
         // a file without chunks: the first record after the magic and the header record
@@ -470,9 +480,7 @@ mod tests {
             &[("/people", people::NAME, people(0.5, &[]))],
             Layout::NoChunks,
         );
-        let header_len = u64::from_le_bytes(bytes[9..17].try_into().unwrap()) as usize;
-        let at = 8 + 9 + header_len;
-        assert_eq!(bytes[at], 0x03, "a schema record");
+        let at = first_schema_record(&bytes);
         bytes[at + 1..at + 9].copy_from_slice(&(1u64 << 32).to_le_bytes());
         let e = read(&bytes, None).unwrap_err();
         assert!(e.contains("length exceeds limit"), "{e}");
@@ -500,9 +508,7 @@ mod tests {
             &[("/people", people::NAME, people(0.5, &[]))],
             Layout::NoChunks,
         );
-        let header_len = u64::from_le_bytes(bytes[9..17].try_into().unwrap()) as usize;
-        let at = 8 + 9 + header_len;
-        assert_eq!(bytes[at], 0x03, "a schema record");
+        let at = first_schema_record(&bytes);
         let name = at + 9 + 2;
         assert_eq!(
             u32::from_le_bytes(bytes[name..name + 4].try_into().unwrap()) as usize,
