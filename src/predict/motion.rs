@@ -18,21 +18,23 @@
 //! step where the map stopped it (the map saw no one walk on from there); `w(t)` is the
 //! map's share ([`bend_to_motion`]):
 //!
-//! * the map's **evidence** for this person, `e`: the posterior odds that their observed
-//!   moving steps (0.4 s steps over 0.2 m/s) came from the map's mixture at each step's
-//!   place rather than from a uniform velocity, against prior odds of `e^-3`:
-//!   `e = 1 / (1 + exp(3 - L))`,
-//!   `L = 0.3 sum_i clamp(log p_map(v_i) - log p_uniform, -2, 2)` (the steps of one walk
-//!   are far from independent, hence the weight 0.3; the clamp keeps one odd step from
-//!   deciding). A step with no location near counts -2. No moving step: `e = 1 / (1 +
-//!   e^3)`, about 0.05. No location near any moving step: `e = 0`, the motion model
-//!   alone. (The prior: a map turned 60 degrees, or another room's, still explains some
-//!   steps of a room where people walk every way; without it such a map took 3-4 % off
-//!   the motion model's accuracy on the THÖR-MAGNI tracklets);
-//! * **growing with the horizon**: `w(t) = e^max(exp(-t / 5 s), 1/2)`, so near the
-//!   present the share is the evidence and from about 3.5 s on its square root: far out
-//!   a map with evidence for the person leads (the motion model knows the next seconds;
-//!   the map knows where people go), and one with little still does not.
+//! * the map's **evidence** for this person, `e`: the posterior odds that the headings
+//!   of their observed moving steps (0.4 s steps over 0.2 m/s) came from the map's
+//!   mixture at each step's place, given the step's speed, rather than from a uniform
+//!   heading, against prior odds of `e^-2.5`: `e = 1 / (1 + exp(2.5 - L))`,
+//!   `L = 0.3 sum_i clamp(log p_map(theta_i | rho_i) + ln(2 pi), -2, 2)` (the steps of one
+//!   walk are far from independent, hence the weight 0.3; the clamp keeps one odd step
+//!   from deciding). The heading's density given the speed is the mixture's joint density
+//!   over its density of that speed ([`CliffMap::heading_log_density`]): every map of a
+//!   room where people walk at about 1.2 m/s explains their speed, a wrong one (turned,
+//!   another room's) still does, so the speed is no evidence for the map. A step with
+//!   no location near counts -2. No moving step: `e = 1 / (1 + e^2.5)`, about 0.08. No
+//!   location near any moving step: `e = 0`, the motion model alone;
+//! * **growing with the horizon**: `w(t) = e^max(exp(-t / 6 s), 0.1)`, so near the
+//!   present the share is the evidence, at 4 s its square root and from about 14 s on its
+//!   tenth root: far out a map with evidence for the person leads (the motion model
+//!   knows the next seconds; the map knows where people go), and one whose evidence is
+//!   gone (`e` of 0.001 or less: every step's heading against the map) still does not.
 //!
 //! So where the map is wrong or missing the samples are the motion model's, and where it
 //! is right they are the map's, starting from the motion model near the present. Every
@@ -49,7 +51,6 @@
 use glam::DVec2;
 
 use super::Point;
-use super::options::NO_LOCATION_LOG_DENSITY;
 use crate::map::CliffMap;
 use crate::math::Simd;
 use crate::math::lane_rng::{LaneRngs, lane_seed, normal_f32_with};
@@ -158,27 +159,35 @@ pub(super) fn last_displacement(state: &State, history: &History) -> State {
 /// against the map.
 const MOVING: f64 = 0.2;
 
-/// The weight of one moving step's log-likelihood ratio (map against uniform) in the
-/// map's evidence: the steps of one walk are far from independent.
+/// The weight of one moving step's log-likelihood ratio (the map's heading against a
+/// uniform heading) in the map's evidence: the steps of one walk are far from
+/// independent.
 const EVIDENCE_WEIGHT: f64 = 0.3;
 
 /// The prior log-odds against the map (nats): before any step, the map's evidence is
-/// `1 / (1 + e^3)`, about 0.05; the motion model leads until the person's steps show the
-/// map explains them.
-const EVIDENCE_PRIOR: f64 = 3.0;
+/// `1 / (1 + e^2.5)`, about 0.08; the motion model leads until the person's steps show
+/// the map explains them.
+const EVIDENCE_PRIOR: f64 = 2.5;
+
+/// `ln(2 pi)`: the log-density of a uniform heading is its negative.
+const LOG_TAU: f64 = 1.837_877_066_409_345_3;
 
 /// The largest log-likelihood ratio one step adds or takes from the evidence (nats);
 /// a step with no map location near counts its negative.
 const EVIDENCE_CLAMP: f64 = 2.0;
 
-/// Seconds over which the map's share grows from its evidence to the evidence's square
-/// root: `w(t) = e^max(exp(-t / SHARE_GROWTH), 1/2)`.
-const SHARE_GROWTH: f64 = 5.0;
+/// Seconds over which the map's share grows from its evidence towards the evidence's
+/// tenth root: `w(t) = e^max(exp(-t / SHARE_GROWTH), SHARE_FLOOR)`.
+const SHARE_GROWTH: f64 = 6.0;
+
+/// The smallest exponent of the map's share (from about 14 s on): `e^0.1`.
+const SHARE_FLOOR: f64 = 0.1;
 
 /// The map's evidence for this person (see the [module documentation](self)): the
-/// posterior probability that their observed moving steps come from the map's mixtures
-/// rather than a uniform velocity, against prior odds of `e^-3`; about 0.05 with no
-/// moving step, 0 when no moving step has a map location near.
+/// posterior probability that their observed moving steps' headings come from the map's
+/// mixtures (given each step's speed) rather than a uniform heading, against prior odds
+/// of `e^-2.5`; about 0.08 with no moving step, 0 when no moving step has a map location
+/// near.
 pub(super) fn map_evidence(
     map: &CliffMap,
     near: &impl Fn(DVec2) -> Option<usize>,
@@ -197,7 +206,7 @@ pub(super) fn map_evidence(
             Some(i) => {
                 located = true;
                 let heading = crate::math::wrap_2pi(v.y.atan2(v.x));
-                map.log_density(i, heading, speed) - NO_LOCATION_LOG_DENSITY
+                map.heading_log_density(i, heading, speed) + LOG_TAU
             }
             None => -EVIDENCE_CLAMP,
         };
@@ -214,7 +223,7 @@ pub(super) fn map_evidence(
 pub(super) struct Bend {
     /// The motion model's path at each step of the call.
     pub(super) path: MotionPath,
-    /// Per step: the exponent of the map's share (`max(exp(-t / SHARE_GROWTH), 1/2)`)
+    /// Per step: the exponent of the map's share (`max(exp(-t / SHARE_GROWTH), SHARE_FLOOR)`)
     /// and the blend's weight on the line, for the steps, step length and blend of
     /// `times_of` (the same for every agent of every call that has them).
     times: Vec<[f64; 2]>,
@@ -295,12 +304,12 @@ pub(super) fn bend_to_motion(
             } else {
                 0.0
             };
-            [(-t / SHARE_GROWTH).exp().max(0.5), w]
+            [(-t / SHARE_GROWTH).exp().max(SHARE_FLOOR), w]
         }));
         bend.times_of = times_of;
     }
     // the map's share at each step, `evidence^exponent` (one power per exponent: from
-    // about 3.5 s on the exponent is 1/2 at every step)
+    // about 14 s on the exponent is SHARE_FLOOR at every step)
     let mut last = (f64::NAN.to_bits(), 0.0);
     for c in &mut bend.at {
         c.clear();
@@ -488,7 +497,7 @@ mod tests {
                 };
                 last = sample;
                 let t = (j + 1) as f64 * dt;
-                let share = evidence.powf((-t / SHARE_GROWTH).exp().max(0.5));
+                let share = evidence.powf((-t / SHARE_GROWTH).exp().max(SHARE_FLOOR));
                 let p = m + (sample - m) * share;
                 *out = [p.x as f32, p.y as f32];
             }
