@@ -15,7 +15,10 @@
 //!
 //! The buffer is reused, so no call allocates (`tests/no_alloc.rs` checks that).
 //!
-//! Run: `cargo bench --bench occupancy`.
+//! Run: `cargo bench --bench occupancy`. With `OCCUPANCY_CALLS=N` (and
+//! `OCCUPANCY_CALL=window` for the window) the bench instead makes N calls of
+//! `compute` on the scene and exits, for `perf stat -e task-clock` on the bench's
+//! binary; the CPU time per call is the difference from `OCCUPANCY_CALLS=0` over N.
 
 use std::hint::black_box;
 
@@ -58,6 +61,20 @@ fn bench(c: &mut Criterion) {
     let settings = Settings::default();
     let samples = Samples::from_batch(&batch, params.dt).expect("samples");
     let mut occupancy = Occupancy::new();
+    if let Ok(calls) = std::env::var("OCCUPANCY_CALLS") {
+        let calls: usize = calls.parse().expect("OCCUPANCY_CALLS is a number of calls");
+        let window = std::env::var("OCCUPANCY_CALL").is_ok_and(|c| c == "window");
+        for _ in 0..calls {
+            if window {
+                occupancy.window(black_box(&samples), &grid, 0.4, 12.0, &settings)
+            } else {
+                occupancy.compute(black_box(&samples), &grid, &times, &settings)
+            }
+            .unwrap();
+            black_box(occupancy.cells()[0]);
+        }
+        std::process::exit(0);
+    }
 
     c.bench_function("occupancy_30people_k20_30times_200x200", |b| {
         b.iter(|| {

@@ -15,10 +15,21 @@
 //! ([`Error::Rejected`]), and reports [`Error::NoDaemon`] only when nothing answers there
 //! either.
 //!
+//! A request whose link drops before its reply (the daemon restarts, the network goes
+//! away, or zenoh's `tls/` link closes itself under load: eclipse-zenoh/zenoh#2557) is
+//! sent again, with its id, on the same session once zenoh has reconnected, within the
+//! request's deadline (at most three attempts, each after 10 ms for the old link to
+//! go). This is safe for every kind: a prediction has no side effect, and the daemon
+//! answers an observe request it has taken already with its first answer's counts
+//! without taking its rows again. A query that gets no reply on a live link is tried
+//! the same way, so nobody answering on the key costs about 20 ms before
+//! [`Error::NoDaemon`].
+//!
 //! Failures map to the same [`Error`]s as locally: [`Error::NoDaemon`] when the daemon
-//! cannot be reached or does not answer on the key (zenoh reports no daemon, a daemon
-//! that died mid-request and an access-control denial alike: no reply), [`Error::Deadline`],
-//! [`Error::Rejected`]. [`Error::DaemonGone`] is never returned over zenoh.
+//! cannot be reached within the deadline or does not answer on the key (zenoh reports no
+//! daemon on a live link and an access-control denial alike: no reply),
+//! [`Error::Deadline`], [`Error::Rejected`]. [`Error::DaemonGone`] is never returned over
+//! zenoh.
 
 use std::path::Path;
 use std::time::{Duration, Instant};
@@ -189,7 +200,8 @@ impl ZenohLink {
     }
 
     /// One query on the prediction key (or the observe key) with the encoded request
-    /// `bytes`, within `deadline` from `start`.
+    /// `bytes`, within `deadline` from `start`; sent again when the session's link
+    /// dropped before the reply and zenoh reconnects in time.
     fn query(
         &mut self,
         observe: bool,
@@ -197,19 +209,73 @@ impl ZenohLink {
         deadline: Duration,
         start: Instant,
     ) -> Result<ResponseHeader, Error> {
+        // A query that ends without a reply on a live link means nobody answers on the
+        // key; but the link may also have dropped under the query (zenoh reconnects
+        // within milliseconds, so the drop cannot be told from the link's state
+        // afterwards): a few more attempts, each once the old link is gone and the
+        // session has a link again, tell the two apart.
+        const ATTEMPTS: usize = 3;
+        // (cloning the payload for another attempt shares its buffer)
+        let payload = ZBytes::from(bytes);
+        let mut attempt = 1;
+        loop {
+            match self.query_once(observe, payload.clone(), deadline, start) {
+                Err(Error::NoDaemon { .. })
+                    if attempt < ATTEMPTS && self.wait_for_link(deadline, start) =>
+                {
+                    attempt += 1;
+                }
+                r => return r,
+            }
+        }
+    }
+
+    /// Whether the session has a link to a peer or router now.
+    fn linked(&self) -> bool {
+        let info = self.session.info();
+        info.peers_zid().wait().next().is_some() || info.routers_zid().wait().next().is_some()
+    }
+
+    /// Wait until a link that was closing is gone (a query sent meanwhile could follow
+    /// it and wait out its deadline) and the session has a link (zenoh reconnects by
+    /// itself): true when it has one before `deadline` from `start`.
+    fn wait_for_link(&self, deadline: Duration, start: Instant) -> bool {
+        const SETTLE: Duration = Duration::from_millis(10);
+        const POLL: Duration = Duration::from_millis(2);
+        std::thread::sleep(SETTLE.min(deadline.saturating_sub(start.elapsed())));
+        loop {
+            if self.linked() {
+                return start.elapsed() < deadline;
+            }
+            let left = deadline.saturating_sub(start.elapsed());
+            if left.is_zero() {
+                return false;
+            }
+            std::thread::sleep(POLL.min(left));
+        }
+    }
+
+    /// One attempt of [`query`](Self::query).
+    fn query_once(
+        &mut self,
+        observe: bool,
+        payload: ZBytes,
+        deadline: Duration,
+        start: Instant,
+    ) -> Result<ResponseHeader, Error> {
+        let left = deadline.saturating_sub(start.elapsed());
+        if left.is_zero() {
+            return Err(Error::Deadline { deadline });
+        }
         let key = if observe {
             &self.observe_key
         } else {
             &self.key
         };
-        let left = deadline.saturating_sub(start.elapsed());
-        if left.is_zero() {
-            return Err(Error::Deadline { deadline });
-        }
         let replies = self
             .session
             .get(key)
-            .payload(ZBytes::from(bytes))
+            .payload(payload)
             // the session this request counts for (the daemon allows each session as
             // many requests in flight as a local client)
             .attachment(ZBytes::from(self.session.zid().to_le_bytes()))

@@ -171,7 +171,7 @@ impl Client {
     ///
     /// Args:
     ///     endpoint: where the daemon listens, e.g. ``"tcp/192.0.2.10:7447"`` or
-    ///         ``"tls/cliffd.lan:7447"``; a list of endpoints; or ``None`` when
+    ///         ``"quic/cliffd.lan:7447"``; a list of endpoints; or ``None`` when
     ///         ``config`` names them (``connect.endpoints``).
     ///     service: the daemon's ``--service`` name (its zenoh key expression).
     ///     config: a zenoh configuration file (JSON5: TLS certificates, ...; cliff's

@@ -34,7 +34,7 @@ pub struct Parameters {
     /// The daemon's service (its iceoryx2 service; its zenoh key expression over zenoh).
     pub daemon_service: String,
     /// Reach a cliffd on another host over zenoh at this endpoint (`tcp/HOST:7447`,
-    /// `tls/HOST:7447`); empty: the cliffd of this host over shared memory, unless
+    /// `quic/HOST:7447`); empty: the cliffd of this host over shared memory, unless
     /// `daemon_zenoh_config` is set. Needs the cargo feature `zenoh`.
     pub daemon_zenoh: String,
     /// A zenoh configuration file for reaching cliffd (TLS certificates, endpoints); set

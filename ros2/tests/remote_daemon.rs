@@ -363,7 +363,7 @@ fn a_node_not_allowed_to_teach_gets_its_status_and_keeps_predicting() {
     std::fs::create_dir_all(&dir).unwrap();
     tls::certificates(&dir, &["robot-1", "robot-2"]);
     let daemon_cfg = tls::docs_config("cliffd-site.json5", &dir, "cliffd", SERVICE);
-    let ep = format!("tls/127.0.0.1:{PORT_NOT_ALLOWED}");
+    let ep = format!("quic/127.0.0.1:{PORT_NOT_ALLOWED}");
     let map = format!("thor1={}", shared_data("thor1/cliffmap.csv").display());
     let daemon = Daemon::start(
         "acl",

@@ -224,7 +224,7 @@ struct Args {
     pid_file: Option<PathBuf>,
 
     /// Also serve remote clients over zenoh, listening on this endpoint (repeatable;
-    /// e.g. tcp/127.0.0.1:7447, tls/0.0.0.0:7447). The queryable's key expression is the
+    /// e.g. tcp/127.0.0.1:7447, quic/0.0.0.0:7447). The queryable's key expression is the
     /// service name. Nothing listens unless asked; multicast and gossip scouting are off.
     #[cfg(feature = "zenoh")]
     #[arg(long = "zenoh", value_name = "ENDPOINT")]

@@ -3,7 +3,8 @@
 //! budgets per session; observations only on the observe key), and a robot's cliffd in
 //! another iceoryx2 namespace follows it over zenoh (`--follow`): it serves the site's
 //! versions under their numbers, byte for byte, keeps serving while the site is away,
-//! restarts on its snapshot, and follows again when the site comes back.
+//! restarts on its snapshot, and follows again when the site comes back. A link that
+//! drops under a session's requests costs it nothing but time.
 #![cfg(feature = "zenoh")]
 
 mod common;
@@ -24,6 +25,8 @@ use zenoh::Wait;
 const PORT_OBSERVE: u16 = 27_481;
 const PORT_FOLLOW: u16 = 27_482;
 const PORT_C: u16 = 27_484;
+const PORT_CUT: u16 = 27_485;
+const PORT_CUT_PROXY: u16 = 27_486;
 
 fn endpoint(port: u16) -> String {
     format!("tcp/127.0.0.1:{port}")
@@ -418,4 +421,60 @@ fn the_c_abi_observes_over_zenoh_once_per_row() {
     assert_eq!(name.to_str().unwrap(), "not-allowed");
     // SAFETY: the client made above, freed once
     unsafe { cliff_client_free(client) };
+}
+
+#[test]
+fn requests_whose_link_drops_are_sent_again_and_counted_once() {
+    let ns = Namespace::new("zsite_cut");
+    let _daemon = Daemon::start(
+        &ns,
+        &[
+            "--map",
+            &thor1_map(),
+            "--learn",
+            "thor1",
+            "--observe-rate",
+            "1000000",
+            "--zenoh",
+            &endpoint(PORT_CUT),
+        ],
+    );
+    let proxy = common::proxy::Proxy::start(PORT_CUT_PROXY, PORT_CUT);
+    let mut robot = remote(PORT_CUT_PROXY);
+    let tracks = thor1_round2();
+    let predict = thor1_request("thor1", &tracks);
+    robot.predict(&predict).expect("before any cut");
+
+    // the link is cut every few milliseconds while the robot predicts and observes
+    let stop = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+    let cutter = {
+        let stop = std::sync::Arc::clone(&stop);
+        std::thread::spawn(move || {
+            let mut cuts = 0;
+            while !stop.load(std::sync::atomic::Ordering::Relaxed) {
+                std::thread::sleep(Duration::from_millis(15));
+                cuts += proxy.cut();
+            }
+            (cuts, proxy.connections())
+        })
+    };
+    let started = Instant::now();
+    let mut predicted = 0;
+    while started.elapsed() < Duration::from_secs(2) {
+        let p = robot.predict(&predict).expect("answered despite the cuts");
+        assert_eq!(p.shape().0, 1);
+        predicted += 1;
+    }
+    let rows: u64 = tracks.iter().map(|t| t.rows.len() as u64).sum();
+    let (accepted, _, _) = observe_like_a_robot(&mut robot, "thor1", &tracks, 8);
+    stop.store(true, std::sync::atomic::Ordering::Relaxed);
+    let (cuts, connections) = cutter.join().unwrap();
+    eprintln!("{predicted} predictions; {cuts} cuts, {connections} connections");
+    assert!(cuts >= 20, "only {cuts} cuts");
+    assert!(
+        connections >= 20,
+        "the session came back {connections} times"
+    );
+    // every row once, although some requests were sent twice
+    assert_eq!(accepted, rows);
 }

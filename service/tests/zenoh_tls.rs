@@ -1,7 +1,7 @@
 //! The README's LAN set-up, run on loopback: cliffd with the configuration of
-//! docs/zenoh/cliffd-lan.json5 (mutual TLS, an access-control list by certificate
-//! common name) and robots with docs/zenoh/robot.json5. Certificates are made with
-//! `openssl` for the test.
+//! docs/zenoh/cliffd-lan.json5 (mutual TLS over zenoh's QUIC link, an access-control
+//! list by certificate common name) and robots with docs/zenoh/robot.json5.
+//! Certificates are made with `openssl` for the test.
 #![cfg(feature = "zenoh")]
 
 mod common;
@@ -31,7 +31,7 @@ fn the_readme_lan_setup_serves_listed_robots_and_nobody_else() {
     std::fs::create_dir_all(&dir).unwrap();
     certificates(&dir, &["robot-1", "intruder"]);
     let daemon_cfg = docs_config("cliffd-lan.json5", &dir, "cliffd");
-    let ep = format!("tls/127.0.0.1:{PORT_TLS}");
+    let ep = format!("quic/127.0.0.1:{PORT_TLS}");
     let cfg = daemon_cfg.to_str().unwrap();
     let _daemon = Daemon::start(&ns, &["--zenoh", &ep, "--zenoh-config", cfg]);
 
@@ -83,7 +83,7 @@ fn observations_over_zenoh_come_only_from_sessions_allowed_to_teach() {
     std::fs::create_dir_all(&dir).unwrap();
     certificates(&dir, &["robot-1", "robot-2"]);
     let daemon_cfg = docs_config("cliffd-site.json5", &dir, "cliffd");
-    let ep = format!("tls/127.0.0.1:{PORT_SITE}");
+    let ep = format!("quic/127.0.0.1:{PORT_SITE}");
     let map = format!("thor1={}", shared_data("thor1/cliffmap.csv").display());
     let daemon = Daemon::start(
         &ns,

@@ -201,11 +201,26 @@ pub fn exp_neg_f32(x: f32) -> f32 {
 /// [`exp_neg_f32`] with the multiply-adds of `M` (fused on the AVX2 path).
 #[inline(always)]
 pub(crate) fn exp_neg_f32_with<M: MulAdd>(x: f32) -> f32 {
+    exp_up_to::<M>(x, 0.0)
+}
+
+/// `e^x` in single precision for `x <= 87` (0 below -87), within 3e-7 relative: the
+/// reduction and polynomial of [`exp_neg_f32`] over both signs (no division for a
+/// positive `x`).
+#[inline(always)]
+pub fn exp_f32(x: f32) -> f32 {
+    exp_up_to::<Separate>(x, 87.0)
+}
+
+/// `e^x` for `x` clamped to `[-87, hi]` (0 below -87) with the multiply-adds of `M`:
+/// `2^k` times a degree-6 polynomial of the rest after a two-part `ln 2` reduction.
+#[inline(always)]
+fn exp_up_to<M: MulAdd>(x: f32, hi: f32) -> f32 {
     const MAGIC: f32 = 12_582_912.0;
     const LN2_HI: f32 = 0.693_145_75;
     const LN2_LO: f32 = 1.428_606_8e-6;
     let m = M::madd32;
-    let xc = x.clamp(-87.0, 0.0);
+    let xc = x.clamp(-87.0, hi);
     let t = xc * std::f32::consts::LOG2_E + MAGIC;
     let k = t - MAGIC;
     let r = m(-k, LN2_LO, m(-k, LN2_HI, xc));
@@ -479,6 +494,23 @@ mod tests {
         assert_eq!(exp_neg(0.0), 1.0);
         assert_eq!(exp_neg(-1000.0), 0.0);
         assert!((exp_neg(-700.0) / (-700.0f64).exp() - 1.0).abs() < 1e-13);
+    }
+
+    #[test]
+    fn exp_f32_matches_libm_over_both_signs() {
+        let mut worst: f64 = 0.0;
+        for i in -286_000i32..=286_000 {
+            let x = i as f32 * 3e-4;
+            worst = worst.max((exp_f32(x) as f64 / (x as f64).exp() - 1.0).abs());
+        }
+        assert!(worst < 5e-7, "{worst}");
+        assert_eq!(exp_f32(0.0), 1.0);
+        assert_eq!(exp_f32(-100.0), 0.0);
+        // the same values as the negative-only form where both apply
+        for i in 0..=10_000 {
+            let x = -(i as f32) * 8e-3;
+            assert_eq!(exp_f32(x).to_bits(), exp_neg_f32(x).to_bits(), "{x}");
+        }
     }
 
     /// The single-precision kernels with the multiply-adds of `M` against libm.

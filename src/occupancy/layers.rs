@@ -3,7 +3,7 @@
 
 use std::ops::Range;
 
-use super::kernel::spread;
+use super::kernel::{silverman_root, spread};
 use super::levels::{FACTORS, Levels};
 use super::samples::TimeIndex;
 use super::tile::{CellBox, Kernel, Tile, extent, grow, reach_box};
@@ -51,6 +51,9 @@ pub(super) struct Scratch {
     pub points: Vec<[f32; 2]>,
     pub index: Vec<TimeIndex>,
     pub sigmas: Vec<f32>,
+    /// One layer's chance of emptiness while its people are folded in (the layer of
+    /// the buffer is written once, at the end).
+    pub empty: Vec<f32>,
 }
 
 impl Occupancy {
@@ -193,13 +196,16 @@ impl Occupancy {
         agents: Range<usize>,
     ) -> Result<(), OccupancyError> {
         self.prepare(samples, grid, times, settings, times.len(), agents.len())?;
+        let too_large = || OccupancyError::TooLarge {
+            layers: times.len(),
+            cells: grid.cells(),
+        };
         self.scratch
             .levels
             .size_for(grid)
-            .map_err(|_| OccupancyError::TooLarge {
-                layers: times.len(),
-                cells: grid.cells(),
-            })?;
+            .map_err(|_| too_large())?;
+        grow(&mut self.scratch.empty, grid.cells()).map_err(|_| too_large())?;
+        self.scratch.empty.resize(grid.cells(), 1.0);
         self.window = false;
         self.scratch.index.clear();
         for (i, &t) in times.iter().enumerate() {
@@ -208,9 +214,12 @@ impl Occupancy {
         }
         let k = samples.shape().1;
         let n = grid.cells();
+        // Silverman's factor for the last number of samples that reached a time
+        let mut root = (0, 0.0);
         for li in 0..times.len() {
             let ti = self.scratch.index[li];
-            let layer = &mut self.cells[li * n..(li + 1) * n];
+            let mut empty = std::mem::take(&mut self.scratch.empty);
+            let layer = &mut empty[..n];
             layer.fill(1.0);
             for (ai, a) in agents.clone().enumerate() {
                 let sc = &mut self.scratch;
@@ -229,7 +238,10 @@ impl Occupancy {
                     Stopped::Renormalise => 1.0 / reached as f32,
                     Stopped::Drop | Stopped::Hold => 1.0 / k as f32,
                 };
-                let sigma = settings.sigma(spread(&sc.points), reached);
+                if root.0 != reached {
+                    root = (reached, silverman_root(reached));
+                }
+                let sigma = settings.sigma_rooted(spread(&sc.points), reached, root.1);
                 let level = Levels::level_for(grid, sigma).filter(|_| !self.exact);
                 match level.and_then(|l| Some((l, sc.levels.level(l)?))) {
                     Some((l, (coarse, layer))) => {
@@ -249,11 +261,8 @@ impl Occupancy {
                 }
             }
             self.scratch.levels.fold_into(layer, grid);
-            // (the interpolation from coarser grids may leave a cell's chance of
-            // emptiness a rounding above 1)
-            for v in layer.iter_mut() {
-                *v = (1.0 - *v).max(0.0);
-            }
+            occupied(layer, &mut self.cells[li * n..(li + 1) * n]);
+            self.scratch.empty = empty;
         }
         Ok(())
     }
@@ -320,4 +329,44 @@ fn fold_person_body(
     }
     sp.tile.fold_into(layer, grid.width);
     Some(area)
+}
+
+/// `out = max(0, 1 - empty)` cell by cell: the chance that a cell is occupied from its
+/// chance of emptiness (which the interpolation from coarser grids may leave a
+/// rounding above 1). On AVX2 when the process runs on it ([`Simd::active`]), `out`
+/// written past the cache (the buffer's layers are read after the call, not in it).
+fn occupied(empty: &[f32], out: &mut [f32]) {
+    #[cfg(target_arch = "x86_64")]
+    if Simd::active() == Simd::Avx2Fma {
+        // SAFETY: the processor has AVX2 (`Simd::active` checked it)
+        return unsafe { occupied_avx2(empty, out) };
+    }
+    for (o, &e) in out.iter_mut().zip(empty) {
+        *o = (1.0 - e).max(0.0);
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+unsafe fn occupied_avx2(empty: &[f32], out: &mut [f32]) {
+    use std::arch::x86_64::*;
+    let n = out.len().min(empty.len());
+    // the cells before the first 32-byte boundary of `out` and after the last whole
+    // register one by one; the registers between streamed
+    let lead = out.as_ptr().align_offset(32).min(n);
+    let body = lead + (n - lead) / 8 * 8;
+    let one_by_one = |o: &mut f32, e: f32| *o = (1.0 - e).max(0.0);
+    for i in (0..lead).chain(body..n) {
+        one_by_one(&mut out[i], empty[i]);
+    }
+    let (one, zero) = (_mm256_set1_ps(1.0), _mm256_setzero_ps());
+    for i in (lead..body).step_by(8) {
+        // SAFETY: `i + 8 <= body <= n` cells of both; `out + i` is 32-byte aligned
+        unsafe {
+            let e = _mm256_loadu_ps(empty.as_ptr().add(i));
+            let o = _mm256_max_ps(_mm256_sub_ps(one, e), zero);
+            _mm256_stream_ps(out.as_mut_ptr().add(i), o);
+        }
+    }
+    _mm_sfence();
 }

@@ -7,7 +7,7 @@
 use std::collections::TryReserveError;
 
 use super::GridSpec;
-use super::kernel::{axis_box, axis_mass, axis_span};
+use super::kernel::{AxisNormal, axis_box, axis_span};
 
 /// The cells of a tile row are handled this many at a time (an AVX2 register of f32).
 const LANES: usize = 8;
@@ -74,21 +74,31 @@ pub(super) fn extent(points: &[[f32; 2]]) -> Option<([f32; 2], [f32; 2])> {
 }
 
 /// One sample's kernel on a tile: the box of grid cells it covers, the masses of its
-/// rows (`my`), and the masses of its columns (`mx`) from its first column (the tile
-/// column `lead`) over a whole number of eight cells (zero past the box).
+/// rows (`my`, the first `rows`), and the masses of its columns (`mx`, the first
+/// `cols`) from its first column (the tile column `lead`) over a whole number of eight
+/// cells (zero past the box). `mx` and `my` keep the length [`size_for`](Self::size_for)
+/// gave them: a kernel writes its part.
 #[derive(Debug, Clone, Default)]
 pub(super) struct Kernel {
     pub cells: Option<CellBox>,
     mx: Vec<f32>,
     my: Vec<f32>,
+    cols: usize,
+    rows: usize,
     lead: usize,
+    /// The normal of the last kernel's width on the last grid's cells.
+    axis: AxisNormal,
 }
 
 impl Kernel {
     /// Room for any kernel on the grid (no allocation when there is).
     pub fn size_for(&mut self, grid: &GridSpec) -> Result<(), TryReserveError> {
-        grow(&mut self.mx, lanes_for(grid.width) + LANES)?;
-        grow(&mut self.my, lanes_for(grid.height))
+        let (cols, rows) = (lanes_for(grid.width) + LANES, lanes_for(grid.height));
+        grow(&mut self.mx, cols)?;
+        grow(&mut self.my, rows)?;
+        self.mx.resize(self.mx.len().max(cols), 0.0);
+        self.my.resize(self.my.len().max(rows), 0.0);
+        Ok(())
     }
 
     /// The kernel of width `sigma` (cut at `reach`, m) of a sample at `p`, placed on a
@@ -120,15 +130,16 @@ impl Kernel {
         // cells past the kernel's box then cleared: it is cut at `reach`
         self.lead = c0 - area.c0;
         let cols = c1 - c0 + 1;
-        self.mx.clear();
-        self.mx.resize(lanes_for(cols), 0.0);
-        axis_mass(p[0], sigma, ox, res, c0, &mut self.mx);
-        self.mx[cols..].fill(0.0);
-        let rows = r1 - r0 + 1;
-        self.my.clear();
-        self.my.resize(lanes_for(rows), 0.0);
-        axis_mass(p[1], sigma, oy, res, r0, &mut self.my);
-        self.my.truncate(rows);
+        self.cols = lanes_for(cols);
+        if self.axis.sigma != sigma || self.axis.resolution != res {
+            self.axis = AxisNormal::new(sigma, res);
+        }
+        let mx = &mut self.mx[..self.cols];
+        self.axis.mass(p[0], ox, c0, mx);
+        mx[cols..].fill(0.0);
+        self.rows = r1 - r0 + 1;
+        self.axis
+            .mass(p[1], oy, r0, &mut self.my[..lanes_for(self.rows)]);
         self.cells = Some(CellBox { r0, r1, c0, c1 });
         true
     }
@@ -183,12 +194,7 @@ impl Tile {
     #[inline(always)]
     fn span(&self, k: &Kernel) -> Option<(usize, usize, usize, usize)> {
         let (area, cells) = (self.area?, k.cells?);
-        Some((
-            cells.r0 - area.r0,
-            cells.r1 - cells.r0 + 1,
-            k.lead,
-            k.mx.len(),
-        ))
+        Some((cells.r0 - area.r0, k.rows, k.lead, k.cols))
     }
 
     /// Add `w` times the kernel (the outer product of its row and column masses).
@@ -197,24 +203,68 @@ impl Tile {
         let Some((r0, rows, c0, cols)) = self.span(k) else {
             return;
         };
-        for (r, &fy) in (r0..r0 + rows).zip(&k.my) {
-            let wy = w * fy;
-            let row = &mut self.cells[r * self.stride + c0..r * self.stride + c0 + cols];
-            for (o, m) in row
-                .as_chunks_mut::<LANES>()
-                .0
-                .iter_mut()
-                .zip(k.mx.as_chunks::<LANES>().0)
-            {
+        // a kernel's columns held in registers for all its rows
+        match cols / LANES {
+            1 => self.add_rows::<1>(k, w, r0, rows, c0),
+            2 => self.add_rows::<2>(k, w, r0, rows, c0),
+            3 => self.add_rows::<3>(k, w, r0, rows, c0),
+            4 => self.add_rows::<4>(k, w, r0, rows, c0),
+            5 => self.add_rows::<5>(k, w, r0, rows, c0),
+            6 => self.add_rows::<6>(k, w, r0, rows, c0),
+            _ => self.each_chunk(k, (r0, rows, c0, cols), |fy, o, m| {
                 // (through registers: the eight loads, then the eight stores)
-                let (mut v, m) = (*o, *m);
+                let (wy, mut v) = (w * fy, *o);
+                for j in 0..LANES {
+                    v[j] += wy * m[j];
+                }
+                *o = v;
+            }),
+        }
+        self.touch((r0, r0 + rows - 1), (c0, c0 + cols - 1));
+    }
+
+    /// [`add`](Self::add) for a kernel `N` registers wide: its column masses loaded
+    /// once.
+    #[inline(always)]
+    fn add_rows<const N: usize>(&mut self, k: &Kernel, w: f32, r0: usize, rows: usize, c0: usize) {
+        let mut m = [[0.0f32; LANES]; N];
+        for (m, x) in m.iter_mut().zip(k.mx[..N * LANES].as_chunks::<LANES>().0) {
+            *m = *x;
+        }
+        for (r, &fy) in (r0..r0 + rows).zip(&k.my[..rows]) {
+            let wy = w * fy;
+            let at = r * self.stride + c0;
+            let row = self.cells[at..at + N * LANES].as_chunks_mut::<LANES>().0;
+            for (o, m) in row.iter_mut().zip(&m) {
+                let mut v = *o;
                 for j in 0..LANES {
                     v[j] += wy * m[j];
                 }
                 *o = v;
             }
         }
-        self.touch((r0, r0 + rows - 1), (c0, c0 + cols - 1));
+    }
+
+    /// `f(row mass, eight cells, their column masses)` for each eight cells of the
+    /// kernel's span `(first row, rows, first column, columns)` ([`span`](Self::span)).
+    #[inline(always)]
+    fn each_chunk(
+        &mut self,
+        k: &Kernel,
+        (r0, rows, c0, cols): (usize, usize, usize, usize),
+        mut f: impl FnMut(f32, &mut [f32; LANES], &[f32; LANES]),
+    ) {
+        for (r, &fy) in (r0..r0 + rows).zip(&k.my[..rows]) {
+            let row = &mut self.cells[r * self.stride + c0..r * self.stride + c0 + cols];
+            for (o, m) in row
+                .as_chunks_mut::<LANES>()
+                .0
+                .iter_mut()
+                .zip(k.mx[..cols].as_chunks::<LANES>().0)
+            {
+                f(fy, o, m);
+            }
+        }
     }
 
     /// Raise each cell to the kernel's mass there where that is larger.
@@ -223,21 +273,13 @@ impl Tile {
         let Some((r0, rows, c0, cols)) = self.span(k) else {
             return;
         };
-        for (r, &fy) in (r0..r0 + rows).zip(&k.my) {
-            let row = &mut self.cells[r * self.stride + c0..r * self.stride + c0 + cols];
-            for (o, m) in row
-                .as_chunks_mut::<LANES>()
-                .0
-                .iter_mut()
-                .zip(k.mx.as_chunks::<LANES>().0)
-            {
-                let (mut v, m) = (*o, *m);
-                for j in 0..LANES {
-                    v[j] = v[j].max(fy * m[j]);
-                }
-                *o = v;
+        self.each_chunk(k, (r0, rows, c0, cols), |fy, o, m| {
+            let mut v = *o;
+            for j in 0..LANES {
+                v[j] = v[j].max(fy * m[j]);
             }
-        }
+            *o = v;
+        });
         self.touch((r0, r0 + rows - 1), (c0, c0 + cols - 1));
     }
 
@@ -278,21 +320,38 @@ impl Tile {
         let (Some(t), Some(area)) = (self.touched.take(), self.area) else {
             return;
         };
+        // the columns past the area's last only ever receive zeros (the column masses
+        // past a kernel's box are zero): they stay clear
         let last = t.c1.min(area.c1 - area.c0);
+        let fold = |e: &mut f32, p: &mut f32| {
+            *e *= (1.0 - *p).max(0.0);
+            *p = 0.0;
+        };
         for r in t.r0..=t.r1 {
             let row = r * self.stride;
             let at = (area.r0 + r) * width + area.c0;
             let tile = &mut self.cells[row + t.c0..=row + last];
-            for (e, p) in layer[at + t.c0..=at + last].iter_mut().zip(tile.iter()) {
-                *e *= (1.0 - *p).max(0.0);
+            let layer = &mut layer[at + t.c0..=at + last];
+            let (tiles, tile_tail) = tile.as_chunks_mut::<LANES>();
+            let (layers, layer_tail) = layer.as_chunks_mut::<LANES>();
+            // eight cells at a time (through registers), then the rest one by one
+            for (e, p) in layers.iter_mut().zip(tiles.iter_mut()) {
+                let (mut v, mut q) = (*e, *p);
+                for j in 0..LANES {
+                    fold(&mut v[j], &mut q[j]);
+                }
+                (*e, *p) = (v, q);
             }
-            self.cells[row + t.c0..=row + t.c1].fill(0.0);
+            for (e, p) in layer_tail.iter_mut().zip(tile_tail.iter_mut()) {
+                fold(e, p);
+            }
         }
     }
 }
 
 #[cfg(test)]
 mod tests {
+    use super::super::kernel::axis_mass;
     use super::*;
 
     #[test]

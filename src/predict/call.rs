@@ -240,7 +240,7 @@ fn consensus(
     tracks: &[Point],
     lens: &[u32],
     scores: &mut [f32],
-    centre: &mut Vec<[f64; 3]>,
+    centre: &mut Vec<[f64; 2]>,
     simd: Simd,
 ) {
     match simd {
@@ -261,30 +261,37 @@ unsafe fn consensus_avx2(
     tracks: &[Point],
     lens: &[u32],
     scores: &mut [f32],
-    centre: &mut Vec<[f64; 3]>,
+    centre: &mut Vec<[f64; 2]>,
 ) {
     consensus_of(tracks, lens, scores, centre)
 }
 
 #[inline(always)]
-fn consensus_of(tracks: &[Point], lens: &[u32], scores: &mut [f32], centre: &mut Vec<[f64; 3]>) {
+fn consensus_of(tracks: &[Point], lens: &[u32], scores: &mut [f32], centre: &mut Vec<[f64; 2]>) {
     let steps = tracks.len() / lens.len().max(1);
+    // the samples' mean position at each step: each step's sum over the samples that
+    // reach it, in the samples' order, divided by their number
     centre.clear();
-    centre.resize(steps, [0.0; 3]);
+    centre.resize(steps, [0.0; 2]);
     for (track, &len) in tracks.chunks_exact(steps.max(1)).zip(lens) {
-        for (c, p) in centre.iter_mut().zip(&track[..len as usize]) {
-            c[0] += p[0] as f64;
-            c[1] += p[1] as f64;
-            c[2] += 1.0;
+        // (x and y alike: the flat values)
+        let (track, sums) = (track.as_flattened(), centre.as_flattened_mut());
+        for (c, &v) in sums.iter_mut().zip(&track[..2 * len as usize]) {
+            *c += v as f64;
         }
     }
-    for c in centre.iter_mut().filter(|c| c[2] > 0.0) {
-        c[0] /= c[2];
-        c[1] /= c[2];
+    for (j, c) in centre.iter_mut().enumerate() {
+        let n = lens.iter().map(|&l| (l as usize > j) as u32).sum::<u32>();
+        if n > 0 {
+            c[0] /= n as f64;
+            c[1] /= n as f64;
+        }
     }
     // the distances' sums four samples at a time, each its own steps in order (the
-    // bits of one at a time: the steps past a sample's length add zero to its sum)
+    // bits of one at a time: the steps past a sample's length add zero to its sum);
+    // the distances of four steps of a sample at once, from its consecutive positions
     const W: usize = 4;
+    const B: usize = 4;
     for (first, group) in scores.chunks_mut(W).enumerate() {
         // (a group of fewer than four repeats its last sample, with no steps)
         let rows: [&[Point]; W] = std::array::from_fn(|l| {
@@ -299,13 +306,40 @@ fn consensus_of(tracks: &[Point], lens: &[u32], scores: &mut [f32], centre: &mut
             }
         });
         let most = len.iter().copied().max().unwrap_or(0);
+        let distance = |p: Point, c: [f64; 2]| {
+            // (a square root, not `hypot`: the positions are f32, far from overflow)
+            let (dx, dy) = (p[0] as f64 - c[0], p[1] as f64 - c[1]);
+            (dx * dx + dy * dy).sqrt()
+        };
         let mut sum = [0.0f64; W];
-        for (j, c) in centre[..most].iter().enumerate() {
+        let mut j = 0;
+        while j + B <= most {
+            let c = centre[j..j + B].as_flattened();
+            // (each step's distances of the four samples side by side)
+            let mut d = [[0.0f64; W]; B];
             for l in 0..W {
-                let p = rows[l][j];
-                // (a square root, not `hypot`: the positions are f32, far from overflow)
-                let (dx, dy) = (p[0] as f64 - c[0], p[1] as f64 - c[1]);
-                let d = (dx * dx + dy * dy).sqrt();
+                // (the squares of x and y alike, then each step's sum and root)
+                let row = rows[l][j..j + B].as_flattened();
+                let mut sq = [0.0f64; 2 * B];
+                for i in 0..2 * B {
+                    let v = row[i] as f64 - c[i];
+                    sq[i] = v * v;
+                }
+                for i in 0..B {
+                    let v = (sq[2 * i] + sq[2 * i + 1]).sqrt();
+                    d[i][l] = if j + i < len[l] { v } else { 0.0 };
+                }
+            }
+            for step in &d {
+                for (s, v) in sum.iter_mut().zip(step) {
+                    *s += v;
+                }
+            }
+            j += B;
+        }
+        for (j, &c) in centre[..most].iter().enumerate().skip(j) {
+            for l in 0..W {
+                let d = distance(rows[l][j], c);
                 sum[l] += if j < len[l] { d } else { 0.0 };
             }
         }

@@ -17,7 +17,7 @@ pub(super) struct Candidates {
     /// The candidates' [`rank_key`]s, sorted.
     pub(super) keys: Vec<u128>,
     /// Per step: the sums of the samples' x and y, and how many reach it (consensus).
-    pub(super) centre: Vec<[f64; 3]>,
+    pub(super) centre: Vec<[f64; 2]>,
     /// The candidates' lanes between the stretches of a pruned rollout.
     pub(super) lanes: Vec<Lane>,
     /// The candidates' projected reach at a checkpoint of a pruned rollout.
@@ -75,7 +75,8 @@ pub(super) fn score_order(score: f32) -> u32 {
 
 /// The `keep` best of the candidates of reaches `lens` and scores `scores` (as
 /// [`rank`] orders them) into `order[..keep]`, in the order they were drawn: a
-/// selection, not a sort, with `keys` as scratch.
+/// selection of the `keep`-th best key, then the candidates whose keys are at least
+/// that one, in a pass in the order drawn (no sort), with `keys` as scratch.
 pub(super) fn best(
     lens: &[u32],
     scores: &[f32],
@@ -88,12 +89,17 @@ pub(super) fn best(
         return;
     }
     fill_keys(lens, scores, keys);
-    // (keys are distinct: the best `keep` are one set however they are found)
-    keys.select_nth_unstable_by(keep - 1, |a, b| b.cmp(a));
-    for (o, &key) in order.iter_mut().zip(&keys[..keep]) {
-        *o = u32::MAX - key as u32;
+    // (keys are distinct: exactly `keep` of them are at least the `keep`-th best)
+    let least = *keys.select_nth_unstable_by(keep - 1, |a, b| b.cmp(a)).1;
+    let mut n = 0;
+    for (i, (&l, &s)) in lens.iter().zip(scores).enumerate() {
+        order[n] = i as u32;
+        n += (rank_key(l, s, i) >= least) as usize;
+        if n == keep {
+            break;
+        }
     }
-    order[..keep].sort_unstable();
+    debug_assert_eq!(n, keep);
 }
 
 /// The candidates' [`rank_key`]s, in the order they were drawn, into `keys`.

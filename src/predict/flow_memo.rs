@@ -9,9 +9,22 @@ pub(super) const FLOW_BINS: usize = 32;
 /// The state key of a flow walk at location `loc` heading `(hx, hy)`.
 #[inline]
 pub(super) fn flow_key(loc: usize, hx: f32, hy: f32) -> u32 {
+    flow_key_of(loc, flow_bin(hx, hy))
+}
+
+/// The state key of a flow walk at location `loc` in heading bin `bin` ([`flow_bin`]).
+#[inline(always)]
+pub(super) fn flow_key_of(loc: usize, bin: u32) -> u32 {
+    (loc * FLOW_BINS) as u32 + bin
+}
+
+/// The heading bin of `(hx, hy)` in a flow walk's state key (branch-free: several
+/// headings' bins in one loop are computed side by side, with the same bits).
+#[inline(always)]
+pub(super) fn flow_bin(hx: f32, hy: f32) -> u32 {
     let a = crate::math::fastmath::atan2_f32(hy, hx); // [-pi, pi]
-    let bin = ((a + std::f32::consts::PI) * (FLOW_BINS as f32 / std::f32::consts::TAU)) as usize;
-    (loc * FLOW_BINS + bin.min(FLOW_BINS - 1)) as u32
+    let bin = ((a + std::f32::consts::PI) * (FLOW_BINS as f32 / std::f32::consts::TAU)) as u32;
+    bin.min(FLOW_BINS as u32 - 1)
 }
 
 /// The flow walks' states of one checkpoint and the steps each is worth: an

@@ -7,10 +7,13 @@
 use glam::DVec2;
 
 use super::candidates::score_order;
-use super::flow_memo::{FlowMemo, flow_key};
+use super::flow_memo::{FlowMemo, flow_bin, flow_key, flow_key_of};
 use super::lanes::{Lane, Lanes};
 use crate::math::fastmath::{acos_f32_with, exp_neg_f32};
 use crate::math::simd::Separate;
+
+/// Walkers started side by side ([`Lanes::project_reach`]).
+const WALKERS: usize = 8;
 
 /// Where a flow walker is: its position, heading (a unit vector), location (if it is
 /// near the map) and the key of its state ([`flow_key`], if it has a location).
@@ -26,7 +29,7 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
     /// The projected reach at checkpoint step `to` of `steps`, where the best `keep`
     /// candidates go on: `reach` holds the steps each candidate reached, and those that
     /// reached the checkpoint gain the steps their flow walk stays on the map
-    /// ([`look_ahead`](Self::look_ahead), one memo for the checkpoint). They walk
+    /// ([`walk_from`](Self::walk_from), one memo for the checkpoint). They walk
     /// best-scored first (ties: the one drawn first) and stop once `keep` of them are
     /// projected to the horizon: a candidate not walked could not rank above those (its
     /// reach would be no further, its score is lower), so it keeps the steps it reached.
@@ -55,23 +58,59 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
         order.sort_unstable_by(|a, b| b.cmp(a));
         let max = steps - to;
         let mut horizon = 0;
-        for &o in order.iter() {
-            let i = (u32::MAX - o as u32) as usize;
-            let ahead = self.look_ahead(&lanes[i], max, memo);
-            reach[i] += ahead;
-            if ahead as usize == max {
-                horizon += 1;
-                if horizon == keep {
-                    return;
+        // the walkers start eight at a time: their heading bins side by side, off the
+        // walks' chains (most walks stop at their first state)
+        let index = |o: u64| (u32::MAX - o as u32) as usize;
+        let mut starts = [None; WALKERS];
+        for batch in order.chunks(WALKERS) {
+            self.walkers(batch.iter().map(|&o| &lanes[index(o)]), &mut starts);
+            for (&o, &start) in batch.iter().zip(&starts) {
+                let i = index(o);
+                let ahead = self.walk_from(start, max, memo);
+                reach[i] += ahead;
+                if ahead as usize == max {
+                    horizon += 1;
+                    if horizon == keep {
+                        return;
+                    }
                 }
             }
         }
     }
 
-    /// The walker at the state of the sample in `lane`, and the distance it moves per
-    /// step (`None`: the sample has stopped).
+    /// The walker at the state of each of `lanes` (at most [`WALKERS`]) and the distance
+    /// it moves per step into `out` (`None`: the sample has stopped), their keys' heading
+    /// bins computed side by side.
     #[inline]
-    fn walker(&self, lane: &Lane) -> Option<(Walker, f64)> {
+    fn walkers<'l>(
+        &self,
+        lanes: impl Iterator<Item = &'l Lane>,
+        out: &mut [Option<(Walker, f64)>; WALKERS],
+    ) {
+        let (mut hx, mut hy) = ([1.0f32; WALKERS], [0.0f32; WALKERS]);
+        let mut n = 0;
+        for (lane, out) in lanes.zip(out.iter_mut()) {
+            *out = self.walker_without_key(lane);
+            if let Some((w, _)) = out {
+                [hx[n], hy[n]] = w.h;
+            }
+            n += 1;
+        }
+        let mut bins = [0u32; WALKERS];
+        for l in 0..WALKERS {
+            bins[l] = flow_bin(hx[l], hy[l]);
+        }
+        for (w, bin) in out[..n].iter_mut().zip(bins) {
+            if let Some((w, _)) = w {
+                w.key = w.loc.map(|l| flow_key_of(l, bin));
+            }
+        }
+    }
+
+    /// The walker at the state of the sample in `lane` without its key, and the distance
+    /// it moves per step (`None`: the sample has stopped).
+    #[inline(always)]
+    fn walker_without_key(&self, lane: &Lane) -> Option<(Walker, f64)> {
         let (alive, p, h, speed) = lane.motion();
         if !alive {
             return None;
@@ -79,7 +118,7 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
         // (the lane loop looked the position up: its answer again, without the lookup)
         let loc = lane.location().or_else(|| (self.near)(p));
         debug_assert_eq!(loc, (self.near)(p));
-        let key = loc.map(|l| flow_key(l, h[0], h[1]));
+        let key = None;
         Some((Walker { p, h, loc, key }, speed * self.params.dt))
     }
 
@@ -112,9 +151,21 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
         }
     }
 
-    /// How many of the next `max` steps the sample in `lane` would stay near the map if
-    /// it followed the map's likeliest flow from where it is: a walker that starts with
-    /// the sample's position, heading and speed, and at each step turns towards the mean
+    /// [`walk_from`](Self::walk_from) the walker at the state of the sample in `lane`,
+    /// one sample at a time.
+    #[cfg(test)]
+    pub(super) fn look_ahead(&self, lane: &Lane, max: usize, memo: &mut FlowMemo) -> u32 {
+        let start = self.walker_without_key(lane).map(|(mut w, d)| {
+            w.key = w.loc.map(|l| flow_key(l, w.h[0], w.h[1]));
+            (w, d)
+        });
+        self.walk_from(start, max, memo)
+    }
+
+    /// How many of the next `max` steps a sample would stay near the map if it followed
+    /// the map's likeliest flow from where it is: a walker that starts as `start` (the
+    /// sample's position, heading and speed, its state's key, and the distance it moves
+    /// per step; `None`: the sample has stopped) and at each step turns towards the mean
     /// direction of its location's likeliest component for its heading
     /// ([`CliffMap::follow_mode`](crate::map::CliffMap::follow_mode), with the call's
     /// follow concentration) by the heading kernel's weight, as a sample would without
@@ -123,8 +174,9 @@ impl<F: Fn(DVec2) -> Option<usize>> Lanes<'_, F> {
     /// bins) that an earlier walk of the checkpoint passed stops there and takes that
     /// walk's count ([`FlowMemo`]), so most walks take a few steps; its own states are
     /// then remembered with theirs.
-    pub(super) fn look_ahead(&self, lane: &Lane, max: usize, memo: &mut FlowMemo) -> u32 {
-        let Some((mut w, d)) = self.walker(lane) else {
+    #[inline(always)]
+    fn walk_from(&self, start: Option<(Walker, f64)>, max: usize, memo: &mut FlowMemo) -> u32 {
+        let Some((mut w, d)) = start else {
             return 0;
         };
         memo.path.clear();

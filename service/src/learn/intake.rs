@@ -62,6 +62,9 @@ struct ClientState {
     open: usize,
     /// Rows held in `pending` over all tracks.
     held: usize,
+    /// The last request taken: its id, map and counts (a request sent again after its
+    /// reply was lost is answered with them, see [`Intake::take_request`]).
+    last: Option<(u64, usize, Taken)>,
 }
 
 /// What the intake counted since the daemon started.
@@ -118,6 +121,34 @@ impl Intake {
         self.clients.values().map(|c| c.tracks.len()).sum()
     }
 
+    /// [`take`](Self::take) the rows of the request `request` (its id): a request the
+    /// client sends again with the id of the last one it had taken (its reply was lost
+    /// with the link, and the client retried) takes nothing more and is answered with
+    /// the first answer's counts, so that the client's counts add up as if it had been
+    /// sent once.
+    pub fn take_request(
+        &mut self,
+        client: ClientKey,
+        request: u64,
+        map: usize,
+        rows: &[Observation],
+        now: Instant,
+        out: &mut impl FnMut(Segment),
+    ) -> Result<Taken, Rejection> {
+        if let Some(c) = self.clients.get_mut(&client)
+            && let Some((id, m, taken)) = c.last
+            && (id, m) == (request, map)
+        {
+            c.seen = now;
+            return Ok(taken);
+        }
+        let taken = self.take(client, map, rows, now, out)?;
+        if let Some(c) = self.clients.get_mut(&client) {
+            c.last = Some((request, map, taken));
+        }
+        Ok(taken)
+    }
+
     /// Take the rows of one validated observe request ([`validate_observe`]) for the
     /// learned map `map`: rows the client's track has already passed are duplicates,
     /// the others are taken, unless they exceed one of the client's budgets (rows per
@@ -149,6 +180,7 @@ impl Intake {
             tracks: HashMap::new(),
             open: 0,
             held: 0,
+            last: None,
         });
         c.seen = now;
         let dt = now.saturating_duration_since(c.refilled).as_secs_f64();
@@ -430,6 +462,45 @@ mod tests {
         let o = segments[0].observations[0];
         assert!((o.rho - 1.0).abs() < 1e-9 && o.theta.abs() < 1e-9, "{o:?}");
         assert_eq!(segments[0].times[0], 0.1);
+    }
+
+    #[test]
+    fn a_request_sent_again_gets_its_first_answer_and_takes_nothing() {
+        let mut intake = Intake::new(budgets());
+        let now = Instant::now();
+        let first = intake
+            .take_request(1, 7, 0, &rows(5, 0.0, 4), now, &mut |_| ())
+            .unwrap();
+        assert_eq!((first.accepted, first.duplicates), (4, 0));
+        // the reply was lost: the same request again, answered as the first time
+        let again = intake
+            .take_request(1, 7, 0, &rows(5, 0.0, 4), now, &mut |_| ())
+            .unwrap();
+        assert_eq!(again, first);
+        let s = intake.stats();
+        assert_eq!((s.accepted, s.duplicates), (4, 0));
+        // the same rows under a new request id are duplicates
+        let next = intake
+            .take_request(1, 8, 0, &rows(5, 0.0, 5), now, &mut |_| ())
+            .unwrap();
+        assert_eq!((next.accepted, next.duplicates), (1, 4));
+        // another client's request with the same id is its own
+        let other = intake
+            .take_request(2, 8, 0, &rows(5, 0.0, 2), now, &mut |_| ())
+            .unwrap();
+        assert_eq!((other.accepted, other.duplicates), (2, 0));
+        // a refused request is not remembered: sent again, it is judged again
+        let many: Vec<_> = (10..14).flat_map(|id| rows(id, 0.0, 1)).collect();
+        assert!(
+            intake
+                .take_request(1, 9, 0, &many, now, &mut |_| ())
+                .is_err()
+        );
+        assert!(
+            intake
+                .take_request(1, 9, 0, &many, now, &mut |_| ())
+                .is_err()
+        );
     }
 
     #[test]

@@ -180,11 +180,13 @@ impl Learning {
         self.max_observe_rows
     }
 
-    /// Take the rows of a validated observe request from `client` for registry entry
-    /// `entry`.
+    /// Take the rows of a validated observe request from `client` (its id `request`)
+    /// for registry entry `entry`; the same request sent again is answered with the
+    /// same counts ([`Intake::take_request`]).
     pub fn observe(
         &mut self,
         client: ClientKey,
+        request: u64,
         entry: usize,
         rows: &[Observation],
     ) -> Result<ObserveReply, Rejection> {
@@ -198,11 +200,11 @@ impl Learning {
             });
         };
         let (tx, dropped) = (&self.tx, &mut self.dropped);
-        let taken = self
-            .intake
-            .take(client, i, rows, Instant::now(), &mut |s| {
-                send(tx, dropped, s)
-            })?;
+        let taken =
+            self.intake
+                .take_request(client, request, i, rows, Instant::now(), &mut |s| {
+                    send(tx, dropped, s)
+                })?;
         Ok(ObserveReply {
             accepted: taken.accepted,
             duplicates: taken.duplicates,

@@ -69,7 +69,7 @@ pub(super) fn observe(
             ..internal()
         });
     };
-    let r = learning.observe(client, entry, rows);
+    let r = learning.observe(client, h.request_id, entry, rows);
     if let Err(rej) = &r {
         debug!(request_id = h.request_id, "observation refused: {rej}");
     }

@@ -99,6 +99,28 @@ pub fn zenoh_config(s: &ZenohSettings, limits: &Limits) -> Result<zenoh::Config,
     Ok(config)
 }
 
+/// Whether `config` listens on or connects to a zenoh `tls/` endpoint. zenoh 1.10's TLS
+/// link reads and writes one TLS connection from two threads at once
+/// (eclipse-zenoh/zenoh#2557): under steady traffic it drops connections and can
+/// corrupt memory, so the daemon warns and docs/zenoh.md uses `quic/` (the same
+/// certificates and `tls` settings).
+pub fn uses_tls_link(config: &zenoh::Config) -> bool {
+    ["listen/endpoints", "connect/endpoints"].iter().any(|key| {
+        config
+            .get_json(key)
+            .is_ok_and(|list| list.contains("\"tls/"))
+    })
+}
+
+/// The warning [`uses_tls_link`] calls for, naming `what` uses the link.
+pub fn tls_link_warning(what: &str) -> String {
+    format!(
+        "{what} uses zenoh's tls/ link, which in zenoh 1.10 can drop connections and corrupt \
+         memory under steady traffic (eclipse-zenoh/zenoh#2557): use quic/ with the same \
+         certificates (docs/zenoh.md)"
+    )
+}
+
 /// The memory the zenoh side of the daemon may hold for remote clients, from its
 /// configuration and limits (docs/zenoh.md has the formula):
 ///
@@ -182,6 +204,25 @@ mod tests {
 
     fn get(c: &zenoh::Config, key: &str) -> String {
         c.get_json(key).unwrap()
+    }
+
+    #[test]
+    fn tls_endpoints_are_told_apart_from_quic_and_tcp() {
+        let limits = Limits::default();
+        let with = |endpoints: Vec<String>| {
+            let s = ZenohSettings::new("cliff/predict", endpoints, None);
+            uses_tls_link(&zenoh_config(&s, &limits).unwrap())
+        };
+        assert!(with(vec!["tls/127.0.0.1:7447".into()]));
+        assert!(with(vec![
+            "tcp/127.0.0.1:7447".into(),
+            "tls/0.0.0.0:7448".into()
+        ]));
+        assert!(!with(vec!["quic/127.0.0.1:7447".into()]));
+        assert!(!with(vec!["tcp/127.0.0.1:7447".into()]));
+        let client = cliff_client::zenoh::client_config(&["tls/site:7447".into()], None).unwrap();
+        assert!(uses_tls_link(&client));
+        assert!(tls_link_warning("--follow atc").starts_with("--follow atc uses"));
     }
 
     #[test]

@@ -201,6 +201,9 @@ impl Following {
                 settings.config_file.as_deref(),
             )
             .map_err(|e| bad(format!("--follow {name}: {e}")))?;
+            if super::uses_tls_link(&config) {
+                warn!("{}", super::tls_link_warning(&format!("--follow {name}")));
+            }
             // a reply holds the snapshot: room for the bound and the header
             let rx_max = settings
                 .max_bytes

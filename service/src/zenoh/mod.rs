@@ -65,7 +65,8 @@ use zenoh::query::{Query, Queryable};
 
 pub use config::{
     MESSAGE_SLACK, MemoryBound, REFUSED_QUERY_BYTES, REFUSED_QUEUE, TRANSPORTS_PER_SESSION,
-    default_max_message_bytes, max_request_bytes, max_response_bytes, max_rows, zenoh_config,
+    default_max_message_bytes, max_request_bytes, max_response_bytes, max_rows, tls_link_warning,
+    uses_tls_link, zenoh_config,
 };
 pub use follow::{DEFAULT_MAX_MAP_BYTES, FollowSettings, FollowSpec, FollowStats, Following};
 pub use maps::MapServer;
@@ -77,7 +78,7 @@ use crate::settings::StartError;
 /// Where and how the daemon serves remote clients.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct ZenohSettings {
-    /// Endpoints to listen on (`tcp/127.0.0.1:7447`, `tls/host:7447`); they replace the
+    /// Endpoints to listen on (`tcp/127.0.0.1:7447`, `quic/host:7447`); they replace the
     /// configuration file's `listen.endpoints`. Empty and no file: nothing listens (the
     /// daemon can still reach a router named in the file's `connect.endpoints`).
     pub endpoints: Vec<String>,
@@ -290,6 +291,9 @@ impl ZenohFrontend {
             ));
         }
         let config = zenoh_config(settings, limits).map_err(bad)?;
+        if uses_tls_link(&config) {
+            warn!("{}", tls_link_warning("--zenoh"));
+        }
         let bound = MemoryBound::of(&config, limits, settings.max_sessions, settings.max_active)
             .map_err(bad)?;
         let key = zenoh::key_expr::KeyExpr::try_from(settings.key.clone())

@@ -2,6 +2,7 @@
 //! child that is always killed, and requests with known in-process answers.
 #![allow(dead_code)]
 
+pub mod proxy;
 pub mod tls;
 
 use std::io::{BufRead, BufReader};

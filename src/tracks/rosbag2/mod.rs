@@ -21,13 +21,15 @@
 //! Errors name the file, the topic, the message (1-based among the topic's messages)
 //! and the field (`people[3].position.x`); a damaged file (a truncated chunk, a bad CRC)
 //! is an error naming the file and how far it was read. Costs are bounded: a record is
-//! at most [`MAX_RECORD_BYTES`], a length or count in a message is checked against the
-//! message's bytes before anything is allocated, and memory otherwise grows with the
-//! rows read.
+//! at most [`MAX_RECORD_BYTES`], a length inside a schema or channel record and a length
+//! or count in a message are checked against their record's or message's bytes before
+//! anything is allocated, records that hold no messages are skipped unread, and memory
+//! otherwise grows with the rows read.
 //!
 //! | file | what it holds |
 //! |---|---|
-//! | `recording` | the MCAP reading: topics, types, rows into tracks; [`MAX_RECORD_BYTES`] |
+//! | `recording` | the recording's reading: topics, types, rows into tracks; [`MAX_RECORD_BYTES`] |
+//! | `mcap_file` | one MCAP file's messages with their channels, every length inside a record checked before it is read |
 //! | `cdr` | the CDR reader (little- and big-endian) |
 //! | `header` | what the message types share: the header's stamp, points, value checks |
 //! | [`people`] | `people_msgs/msg/People` |
@@ -35,6 +37,7 @@
 
 mod cdr;
 mod header;
+mod mcap_file;
 pub mod people;
 mod recording;
 pub mod tracked_objects;

@@ -7,6 +7,7 @@ use std::io::Read;
 use mcap::sans_io::LinearReaderOptions;
 
 use super::header::{FieldError, Seen};
+use super::mcap_file::{Cause, for_each_message};
 use super::{people, tracked_objects};
 use crate::tracks::columns::{heading_of, number_ids, velocities_from_positions};
 use crate::tracks::track::MAX_SPEED;
@@ -176,23 +177,16 @@ impl Reading {
         let options = LinearReaderOptions::default()
             .with_record_length_limit(MAX_RECORD_BYTES)
             .with_validate_chunk_crcs(true);
-        let reader = mcap::io::MessageReader::new_with_options(source, options);
         let Reading { topics, decoded } = self;
         for t in decoded.values_mut() {
             t.messages = 0;
         }
         let mut channels: HashMap<u16, Use> = HashMap::new();
-        for (total, message) in reader.enumerate() {
-            let message = message.map_err(|e| {
-                recording(format!(
-                    "not a readable rosbag2 MCAP recording: {e} (after {total} messages)"
-                ))
-            })?;
-            let ch = &message.channel;
+        let read = for_each_message(source, options, |ch, data| {
             let usage = match channels.get(&ch.id) {
                 Some(u) => u,
                 None => {
-                    let type_name = ch.schema.as_ref().map(|s| s.name.clone());
+                    let type_name = ch.schema.clone();
                     topics.insert(
                         ch.topic.clone(),
                         type_name.clone().unwrap_or_else(|| "no schema".into()),
@@ -228,27 +222,31 @@ impl Reading {
                 }
             };
             let Use::Decode(name) = usage else {
-                continue;
+                return Ok(());
             };
             let tracks = decoded.get_mut(name).expect("registered with its channel");
-            if tracks.kind.name != ch.schema.as_ref().map_or("", |s| s.name.as_str()) {
+            if tracks.kind.name != ch.schema.as_deref().unwrap_or("") {
                 return Err(recording(format!(
                     "topic {name} carries two types: {} and {}",
                     tracks.kind.name,
-                    ch.schema.as_ref().map_or("no schema", |s| s.name.as_str())
+                    ch.schema.as_deref().unwrap_or("no schema")
                 )));
             }
-            tracks
-                .add(&message.data)
-                .map_err(|e| DatasetError::Message {
-                    file: file.to_string(),
-                    topic: name.clone(),
-                    index: tracks.messages,
-                    field: e.field,
-                    message: e.message,
-                })?;
-        }
-        Ok(())
+            tracks.add(data).map_err(|e| DatasetError::Message {
+                file: file.to_string(),
+                topic: name.clone(),
+                index: tracks.messages,
+                field: e.field,
+                message: e.message,
+            })
+        });
+        read.map_err(|e| match e.cause {
+            Cause::File(text) => recording(format!(
+                "not a readable rosbag2 MCAP recording: {text} (after {} messages)",
+                e.messages
+            )),
+            Cause::Message(e) => e,
+        })
     }
 
     /// The tracks read; `file` names the recording in errors.
@@ -491,6 +489,28 @@ mod tests {
         let mut bad = plain.clone();
         bad[record + 1..record + 9].copy_from_slice(&(1u64 << 32).to_le_bytes());
         let e = read(&bad, None).unwrap_err();
+        assert!(e.contains("not a readable rosbag2 MCAP recording"), "{e}");
+    }
+
+    #[test]
+    fn a_string_claiming_four_gigabytes_inside_a_record_is_refused_not_reserved() {
+        // the schema record's name: its u32 length (after opcode, record length and the
+        // schema id) claims nearly 4 GiB in a record of a few dozen bytes
+        let mut bytes = mcap(
+            &[("/people", people::NAME, people(0.5, &[]))],
+            Layout::NoChunks,
+        );
+        let header_len = u64::from_le_bytes(bytes[9..17].try_into().unwrap()) as usize;
+        let at = 8 + 9 + header_len;
+        assert_eq!(bytes[at], 0x03, "a schema record");
+        let name = at + 9 + 2;
+        assert_eq!(
+            u32::from_le_bytes(bytes[name..name + 4].try_into().unwrap()) as usize,
+            people::NAME.len()
+        );
+        bytes[name..name + 4].copy_from_slice(&0xFFFF_FFF0u32.to_le_bytes());
+        let e = read(&bytes, None).unwrap_err();
+        assert!(e.contains("name is longer than the record"), "{e}");
         assert!(e.contains("not a readable rosbag2 MCAP recording"), "{e}");
     }
 }
