@@ -77,3 +77,38 @@ impl CliffMap {
         _mm256_blendv_ps(v, _mm256_set1_ps(f32::NEG_INFINITY), none)
     }
 }
+
+impl CliffMap {
+    /// Log-density of the heading `theta` (rad) given the speed `rho` (m/s) under
+    /// location `index`'s mixture: [`log_density`](Self::log_density) less the log of
+    /// the mixture's density of the speed `rho` (each component's speed marginal is
+    /// normal, its windings summed out), so that a map explaining a person's speed but
+    /// not their heading gains nothing from the speed. `-inf` for a location without
+    /// components.
+    pub fn heading_log_density(&self, index: usize, theta: f64, rho: f64) -> f64 {
+        let joint = self.log_density(index, theta, rho);
+        if joint == f64::NEG_INFINITY {
+            return joint;
+        }
+        let a = self.density_start[index] as usize;
+        let b = self.density_start[index + 1] as usize;
+        // a component's speed marginal from its inverse covariance `inv`: variance
+        // `inv_xx / det(inv)`, weight `exp(log_norm) 2 pi / sqrt(det(inv))`, so log-density
+        // `log_norm - (rho - mu)^2 / (2 var) + ln(2 pi / inv_xx) / 2`; summed as a
+        // streaming log-sum-exp (a speed far from every component underflows no term)
+        let (mut m, mut sum) = (f64::NEG_INFINITY, 0.0);
+        for g in &self.density[a..b] {
+            let det_inv = g.inv[0] * g.inv[2] - g.inv[1] * g.inv[1];
+            let d = rho - g.mu[1];
+            let v = g.log_norm - 0.5 * d * d * det_inv / g.inv[0]
+                + 0.5 * (std::f64::consts::TAU / g.inv[0]).ln();
+            if v > m {
+                sum = sum * (m - v).exp() + 1.0;
+                m = v;
+            } else {
+                sum += (v - m).exp();
+            }
+        }
+        joint - (m + sum.ln())
+    }
+}

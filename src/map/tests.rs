@@ -526,3 +526,54 @@ fn eight_lanes_give_each_lanes_step_density_bits() {
         }
     }
 }
+
+#[test]
+fn the_heading_density_given_the_speed_integrates_to_one_over_the_headings() {
+    // two components of unequal weight, one with heading and speed correlated, and a
+    // component whose speed is far from the others'
+    let m = CliffMap::new(vec![loc(
+        0.0,
+        0.0,
+        1.0,
+        vec![
+            Component {
+                theta: 0.3,
+                rho: 1.2,
+                cov: [0.2, 0.05, 0.05, 0.04],
+                weight: 0.6,
+            },
+            Component {
+                theta: 4.0,
+                rho: 0.8,
+                cov: [0.5, 0.0, 0.0, 0.09],
+                weight: 0.3,
+            },
+            Component {
+                theta: 2.0,
+                rho: 2.5,
+                cov: [0.1, 0.0, 0.0, 0.01],
+                weight: 0.1,
+            },
+        ],
+    )])
+    .unwrap();
+    let n = 20_000;
+    for rho in [0.3, 0.8, 1.2, 1.9, 2.5] {
+        // the midpoint rule over [0, 2 pi)
+        let total: f64 = (0..n)
+            .map(|i| {
+                let theta = (i as f64 + 0.5) * TAU / n as f64;
+                m.heading_log_density(0, theta, rho).exp() * TAU / n as f64
+            })
+            .sum();
+        assert!((total - 1.0).abs() < 1e-3, "speed {rho}: {total}");
+    }
+    // one component, heading and speed uncorrelated: the heading's density is the same
+    // at any speed, however unlikely the speed
+    let one = CliffMap::new(vec![loc(0.0, 0.0, 1.0, vec![comp(1.0, 1.0)])]).unwrap();
+    for theta in [0.0, 1.0, 2.5, 5.0] {
+        let at = |rho| one.heading_log_density(0, theta, rho);
+        assert!((at(1.0) - at(2.0)).abs() < 1e-9, "{theta}");
+        assert!(one.log_density(0, theta, 1.0) > one.log_density(0, theta, 2.0) + 1.0);
+    }
+}

@@ -18,21 +18,29 @@
 //! step where the map stopped it (the map saw no one walk on from there); `w(t)` is the
 //! map's share ([`bend_to_motion`]):
 //!
-//! * the map's **evidence** for this person, `e`: the posterior odds that their observed
-//!   moving steps (0.4 s steps over 0.2 m/s) came from the map's mixture at each step's
-//!   place rather than from a uniform velocity, against prior odds of `e^-3`:
-//!   `e = 1 / (1 + exp(3 - L))`,
-//!   `L = 0.3 sum_i clamp(log p_map(v_i) - log p_uniform, -2, 2)` (the steps of one walk
-//!   are far from independent, hence the weight 0.3; the clamp keeps one odd step from
-//!   deciding). A step with no location near counts -2. No moving step: `e = 1 / (1 +
-//!   e^3)`, about 0.05. No location near any moving step: `e = 0`, the motion model
-//!   alone. (The prior: a map turned 60 degrees, or another room's, still explains some
-//!   steps of a room where people walk every way; without it such a map took 3-4 % off
-//!   the motion model's accuracy on the THÖR-MAGNI tracklets);
-//! * **growing with the horizon**: `w(t) = e^max(exp(-t / 5 s), 1/2)`, so near the
-//!   present the share is the evidence and from about 3.5 s on its square root: far out
-//!   a map with evidence for the person leads (the motion model knows the next seconds;
-//!   the map knows where people go), and one with little still does not.
+//! * the map's **likelihood ratio** for this person, `exp(L)`: how much likelier the
+//!   headings of their observed moving steps (0.4 s steps over 0.2 m/s) are under the
+//!   map's mixture at each step's place, given the step's speed, than under a uniform
+//!   heading: `L = 0.3 sum_i clamp(log p_map(theta_i | rho_i) + ln(2 pi), -2, 2)` (the
+//!   steps of one walk are far from independent, hence the weight 0.3; the clamp keeps
+//!   one odd step from deciding). The heading's density given the speed is the
+//!   mixture's joint density over its density of that speed
+//!   ([`CliffMap::heading_log_density`]): every map of a place where people walk at
+//!   about 1.2 m/s explains their speed, a wrong one (turned, another room's) as well,
+//!   so the speed is no evidence for the map. A step with no location near counts -2.
+//!   No moving step: `L = 0`. No location near any moving step: the share is 0, the
+//!   motion model alone;
+//! * the **near share**, `e^max(exp(-t / 5 s), 1/2)`: the map's evidence `e = 1 / (1 +
+//!   exp(2.5 - L))` (prior odds of `e^-2.5` against the map; about 0.08 before any
+//!   step), near the present itself, from about 3.5 s on its square root: the motion
+//!   model knows the next seconds;
+//! * the **far share**, `1 / (1 + exp(p(t) - 2 L))`: the same steps counted twice as
+//!   strongly, against prior log-odds `p(t) = -0.5 + 6 exp(-t / 5 s)` that fall from 5.5
+//!   at the present through 2.2 at 4 s and 0.3 at 10 s
+//!   to -0.5 far out: the map knows where people go. A map whose headings match the
+//!   person's (`L` of 1.5, the median on ATC with its right map) takes 97 % at 20 s, a
+//!   map against them (`L` of -3, the median with that map turned 90 degrees) 0.4 %;
+//! * the share `w(t)` is the larger of the two.
 //!
 //! So where the map is wrong or missing the samples are the motion model's, and where it
 //! is right they are the map's, starting from the motion model near the present. Every
@@ -49,7 +57,6 @@
 use glam::DVec2;
 
 use super::Point;
-use super::options::NO_LOCATION_LOG_DENSITY;
 use crate::map::CliffMap;
 use crate::math::Simd;
 use crate::math::lane_rng::{LaneRngs, lane_seed, normal_f32_with};
@@ -158,27 +165,49 @@ pub(super) fn last_displacement(state: &State, history: &History) -> State {
 /// against the map.
 const MOVING: f64 = 0.2;
 
-/// The weight of one moving step's log-likelihood ratio (map against uniform) in the
-/// map's evidence: the steps of one walk are far from independent.
+/// The weight of one moving step's log-likelihood ratio (the map's heading against a
+/// uniform heading) in the map's evidence: the steps of one walk are far from
+/// independent.
 const EVIDENCE_WEIGHT: f64 = 0.3;
 
-/// The prior log-odds against the map (nats): before any step, the map's evidence is
-/// `1 / (1 + e^3)`, about 0.05; the motion model leads until the person's steps show the
-/// map explains them.
-const EVIDENCE_PRIOR: f64 = 3.0;
+/// The prior log-odds against the map near the present (nats): before any step, the
+/// map's evidence is `1 / (1 + e^2.5)`, about 0.08; the motion model leads until the
+/// person's steps show the map explains them.
+const EVIDENCE_PRIOR: f64 = 2.5;
+
+/// `ln(2 pi)`: the log-density of a uniform heading is its negative.
+const LOG_TAU: f64 = 1.837_877_066_409_345_3;
 
 /// The largest log-likelihood ratio one step adds or takes from the evidence (nats);
 /// a step with no map location near counts its negative.
 const EVIDENCE_CLAMP: f64 = 2.0;
 
-/// Seconds over which the map's share grows from its evidence to the evidence's square
-/// root: `w(t) = e^max(exp(-t / SHARE_GROWTH), 1/2)`.
+/// Seconds over which the exponent of the near share falls from 1 to its floor 1/2:
+/// `e^max(exp(-t / SHARE_GROWTH), 1/2)`.
 const SHARE_GROWTH: f64 = 5.0;
 
-/// The map's evidence for this person (see the [module documentation](self)): the
-/// posterior probability that their observed moving steps come from the map's mixtures
-/// rather than a uniform velocity, against prior odds of `e^-3`; about 0.05 with no
-/// moving step, 0 when no moving step has a map location near.
+/// The prior log-odds against the map far out (nats, negative: for the person, the map),
+/// reached from `FAR_PRIOR + FAR_PRIOR_START` at the present over `FAR_PRIOR_FALL` s.
+const FAR_PRIOR: f64 = -0.5;
+
+/// How far above [`FAR_PRIOR`] the far evidence's prior log-odds start (nats).
+const FAR_PRIOR_START: f64 = 6.0;
+
+/// Seconds over which the far evidence's prior falls to [`FAR_PRIOR`].
+const FAR_PRIOR_FALL: f64 = 5.0;
+
+/// The far-out prior log-odds against the map at `t` seconds ahead, as odds
+/// (`exp(FAR_PRIOR + FAR_PRIOR_START exp(-t / FAR_PRIOR_FALL))`).
+#[inline]
+fn far_prior_odds(t: f64) -> f64 {
+    (FAR_PRIOR + FAR_PRIOR_START * (-t / FAR_PRIOR_FALL).exp()).exp()
+}
+
+/// The map's likelihood ratio for this person, `exp(L)` (see the [module
+/// documentation](self)): how much likelier their observed moving steps' headings are
+/// under the map's mixtures (given each step's speed) than under a uniform heading, each
+/// step's log-ratio clamped and weighted; 1 with no moving step, 0 when no moving step
+/// has a map location near.
 pub(super) fn map_evidence(
     map: &CliffMap,
     near: &impl Fn(DVec2) -> Option<usize>,
@@ -197,7 +226,7 @@ pub(super) fn map_evidence(
             Some(i) => {
                 located = true;
                 let heading = crate::math::wrap_2pi(v.y.atan2(v.x));
-                map.log_density(i, heading, speed) - NO_LOCATION_LOG_DENSITY
+                map.heading_log_density(i, heading, speed) + LOG_TAU
             }
             None => -EVIDENCE_CLAMP,
         };
@@ -206,7 +235,7 @@ pub(super) fn map_evidence(
     if moving && !located {
         return 0.0;
     }
-    1.0 / (1.0 + (EVIDENCE_PRIOR - log_odds).exp())
+    log_odds.exp()
 }
 
 /// The buffers of [`bend_to_motion`], grown once and reused from call to call.
@@ -214,10 +243,11 @@ pub(super) fn map_evidence(
 pub(super) struct Bend {
     /// The motion model's path at each step of the call.
     pub(super) path: MotionPath,
-    /// Per step: the exponent of the map's share (`max(exp(-t / SHARE_GROWTH), 1/2)`)
-    /// and the blend's weight on the line, for the steps, step length and blend of
-    /// `times_of` (the same for every agent of every call that has them).
-    times: Vec<[f64; 2]>,
+    /// Per step: the exponent of the near share (`max(exp(-t / SHARE_GROWTH), 1/2)`),
+    /// the blend's weight on the line and the far prior's odds ([`far_prior_odds`]), for
+    /// the steps, step length and blend of `times_of` (the same for every agent of every
+    /// call that has them).
+    times: Vec<[f64; 3]>,
     times_of: Option<(usize, u64, u64)>,
     /// Per step of the agent being bent: the map's share, the blend's weight, and the
     /// constant-velocity line's point (x, y), one column each.
@@ -264,7 +294,7 @@ fn sample_normals(key: u64, k: usize, out: &mut Vec<DVec2>) {
 /// Bend one agent's samples (`tracks`, `lens`: `k` samples of `steps`) towards the
 /// motion model's path `bend.path` (see the [module documentation](self)), then make the
 /// first sample their mean path: every sample then reaches the horizon. `evidence` is
-/// the map's ([`map_evidence`]), `cv` the constant-velocity line the blend left (its
+/// the map's likelihood ratio for the person ([`map_evidence`]), `cv` the constant-velocity line the blend left (its
 /// start, its step), `blend` the blend's seconds (0: none), `key` the agent's key. The
 /// same bits on every path (`simd` only lets the compiler use wider registers).
 #[allow(clippy::too_many_arguments)]
@@ -295,22 +325,25 @@ pub(super) fn bend_to_motion(
             } else {
                 0.0
             };
-            [(-t / SHARE_GROWTH).exp().max(0.5), w]
+            [(-t / SHARE_GROWTH).exp().max(0.5), w, far_prior_odds(t)]
         }));
         bend.times_of = times_of;
     }
-    // the map's share at each step, `evidence^exponent` (one power per exponent: from
-    // about 3.5 s on the exponent is 1/2 at every step)
+    // the map's share at each step (one power per exponent: from about 3.5 s on the
+    // exponent is 1/2 at every step)
+    let near = evidence / (evidence + EVIDENCE_PRIOR.exp());
     let mut last = (f64::NAN.to_bits(), 0.0);
     for c in &mut bend.at {
         c.clear();
     }
-    for (j, &[e, w]) in bend.times.iter().enumerate() {
+    for (j, &[e, w, far_prior]) in bend.times.iter().enumerate() {
         if e.to_bits() != last.0 {
-            last = (e.to_bits(), evidence.powf(e));
+            last = (e.to_bits(), near.powf(e));
         }
+        let far = evidence * evidence;
+        let share = last.1.max(far / (far + far_prior));
         let line = cv.0 + cv.1 * (j + 1) as f64;
-        for (c, v) in bend.at.iter_mut().zip([last.1, w, line.x, line.y]) {
+        for (c, v) in bend.at.iter_mut().zip([share, w, line.x, line.y]) {
             c.push(v);
         }
     }
@@ -451,6 +484,15 @@ mod tests {
     use super::*;
     use crate::motion::MotionModel;
 
+    /// The map's share at one step from the person's likelihood ratio `odds`
+    /// ([`map_evidence`]): the larger of the near share `e^exponent` (`e` the evidence against
+    /// [`EVIDENCE_PRIOR`], `near` = `e`) and the far evidence, the ratio squared against
+    /// `far_prior` ([`far_prior_odds`]).
+    fn share(near: f64, exponent: f64, odds: f64, far_prior: f64) -> f64 {
+        let far = odds * odds;
+        near.powf(exponent).max(far / (far + far_prior))
+    }
+
     /// The bending one sample and one step at a time, as the module documentation
     /// writes it: the sample's point moved by the blend's weight from the line onto the
     /// model, or where it stopped, then `M + w(t) (S' - M)`; the first sample the mean.
@@ -488,7 +530,9 @@ mod tests {
                 };
                 last = sample;
                 let t = (j + 1) as f64 * dt;
-                let share = evidence.powf((-t / SHARE_GROWTH).exp().max(0.5));
+                let near = evidence / (evidence + EVIDENCE_PRIOR.exp());
+                let exponent = (-t / SHARE_GROWTH).exp().max(0.5);
+                let share = share(near, exponent, evidence, far_prior_odds(t));
                 let p = m + (sample - m) * share;
                 *out = [p.x as f32, p.y as f32];
             }
@@ -529,7 +573,7 @@ mod tests {
                 walker.position,
                 DVec2::from_angle(walker.heading) * (1.3 * dt),
             );
-            for evidence in [0.0, 0.31, 0.5, 1.0] {
+            for evidence in [0.0, 0.31, 1.0, 4.5, 60.0] {
                 // samples stopped anywhere from before their first step to the horizon
                 let lens: Vec<u32> = (0..k)
                     .map(|_| (next() % (steps as u64 + 1)) as u32)
