@@ -245,10 +245,13 @@ if want zenoh; then
     for i in 1 2 3; do
         row zenoh "a site and a following robot on one host, run $i of 3" '' "SECONDS_PER_PHASE=5 benches/site_follow.sh"
     done
-    if [ "$(id -u)" = 0 ] || sudo -n true 2> /dev/null; then
+    # as root directly (a container may have no sudo), otherwise through sudo
+    root_cmd='sudo -n'
+    [ "$(id -u)" = 0 ] && root_cmd=
+    if [ -z "$root_cmd" ] || sudo -n true 2> /dev/null; then
         row zenoh 'round trips over zenoh (loopback, veth) next to iceoryx2' '' \
-            "cargo build -q --release -j 1 -p cliff-service -p cliff-client --features cliff-service/zenoh,cliff-client/zenoh && sudo -n benches/zenoh_netns.sh 3 2000"
-        row zenoh 'a site and a robot on two hosts (network namespaces)' '' "sudo -n bash benches/site_netns.sh"
+            "cargo build -q --release -j 1 -p cliff-service -p cliff-client --features cliff-service/zenoh,cliff-client/zenoh && $root_cmd benches/zenoh_netns.sh 3 2000"
+        row zenoh 'a site and a robot on two hosts (network namespaces)' '' "$root_cmd bash benches/site_netns.sh"
     else
         echo "zenoh: the veth row needs root (sudo benches/remeasure.sh zenoh): skipped" >&2
     fi

@@ -122,8 +122,9 @@ pub struct Options {
     /// Start from the learned motion model instead of constant velocity: the blend
     /// ([`Options::blend`]) leaves the model's path, a sample the map stops (where it
     /// has no data) stands there, and the map bends the model's samples by a share that
-    /// starts at its evidence for the person (how much better it explains their observed
-    /// steps than a uniform velocity) and grows with the horizon; with no map location
+    /// starts at its evidence for the person (how much better it explains the headings
+    /// of their observed steps, given their speeds, than a uniform heading) and grows
+    /// with the horizon; with no map location
     /// near the person the samples are the model's. Every sample reaches the horizon and
     /// the first becomes the samples' mean path (see `predict/motion.rs`).
     pub motion: bool,

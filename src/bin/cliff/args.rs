@@ -119,8 +119,8 @@ pub struct PredictionArgs {
     pub rank: Rank,
     /// Motion (beyond the paper; part of `improved`): start from the learned motion model
     /// instead of constant velocity; the map bends the model's samples by its evidence
-    /// for the person (how much better it explains their observed steps than a uniform
-    /// velocity), a share growing with the horizon; a sample the map stops stands there.
+    /// for the person (how much better it explains the headings of their observed steps,
+    /// given their speeds, than a uniform heading), a share growing with the horizon; a sample the map stops stands there.
     #[arg(long)]
     pub motion: bool,
 }
