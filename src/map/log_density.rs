@@ -2,6 +2,7 @@
 //! and [`CliffMap::step_log_density`] (the prediction loop's single-precision score).
 
 use super::cliff_map::CliffMap;
+use super::stats::log_sum_exp_streaming;
 use crate::math::wrap_2pi;
 
 impl CliffMap {
@@ -13,23 +14,11 @@ impl CliffMap {
         let a = self.density_start[index] as usize;
         let b = self.density_start[index + 1] as usize;
         let theta = wrap_2pi(theta);
-        // streaming log-sum-exp
-        let mut m = f64::NEG_INFINITY;
-        let mut sum = 0.0;
-        for g in &self.density[a..b] {
-            let v = g.log_density_wrapped(theta, rho);
-            if v > m {
-                sum = sum * (m - v).exp() + 1.0;
-                m = v;
-            } else if v > f64::NEG_INFINITY {
-                sum += (v - m).exp();
-            }
-        }
-        if m == f64::NEG_INFINITY {
-            m
-        } else {
-            m + sum.ln()
-        }
+        log_sum_exp_streaming(
+            self.density[a..b]
+                .iter()
+                .map(|g| g.log_density_wrapped(theta, rho)),
+        )
     }
 }
 
@@ -94,21 +83,14 @@ impl CliffMap {
         let b = self.density_start[index + 1] as usize;
         // a component's speed marginal from its inverse covariance `inv`: variance
         // `inv_xx / det(inv)`, weight `exp(log_norm) 2 pi / sqrt(det(inv))`, so log-density
-        // `log_norm - (rho - mu)^2 / (2 var) + ln(2 pi / inv_xx) / 2`; summed as a
-        // streaming log-sum-exp (a speed far from every component underflows no term)
-        let (mut m, mut sum) = (f64::NEG_INFINITY, 0.0);
-        for g in &self.density[a..b] {
+        // `log_norm - (rho - mu)^2 / (2 var) + ln(2 pi / inv_xx) / 2`; summed in one pass
+        // (a speed far from every component underflows no term)
+        let speed = log_sum_exp_streaming(self.density[a..b].iter().map(|g| {
             let det_inv = g.inv[0] * g.inv[2] - g.inv[1] * g.inv[1];
             let d = rho - g.mu[1];
-            let v = g.log_norm - 0.5 * d * d * det_inv / g.inv[0]
-                + 0.5 * (std::f64::consts::TAU / g.inv[0]).ln();
-            if v > m {
-                sum = sum * (m - v).exp() + 1.0;
-                m = v;
-            } else {
-                sum += (v - m).exp();
-            }
-        }
-        joint - (m + sum.ln())
+            g.log_norm - 0.5 * d * d * det_inv / g.inv[0]
+                + 0.5 * (std::f64::consts::TAU / g.inv[0]).ln()
+        }));
+        joint - speed
     }
 }

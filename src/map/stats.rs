@@ -163,6 +163,26 @@ pub fn log_sum_exp(v: &[f64]) -> f64 {
     m + v.iter().map(|x| (x - m).exp()).sum::<f64>().ln()
 }
 
+/// `ln(sum(exp(v)))` of the values in one pass, each term scaled by the largest so far
+/// (so none underflows unless the largest does); `-inf` for none or all `-inf`.
+#[inline]
+pub(crate) fn log_sum_exp_streaming(values: impl IntoIterator<Item = f64>) -> f64 {
+    let (mut m, mut sum) = (f64::NEG_INFINITY, 0.0);
+    for v in values {
+        if v > m {
+            sum = sum * (m - v).exp() + 1.0;
+            m = v;
+        } else if v > f64::NEG_INFINITY {
+            sum += (v - m).exp();
+        }
+    }
+    if m == f64::NEG_INFINITY {
+        m
+    } else {
+        m + sum.ln()
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -7,8 +7,9 @@ use crate::math::fastmath::{exp_f32, exp_neg_f32};
 
 use super::{OccupancyError, Stopped};
 
-/// The cells of an axis whose masses are worked out together (an AVX2 register of f32).
-const LANES: usize = 8;
+/// Cells handled together: the masses of an axis, a tile row's cells (an AVX2 register
+/// of f32).
+pub(super) const LANES: usize = 8;
 
 /// How samples become occupancy: the kernel's width and cut-off and what a stopped
 /// sample means.

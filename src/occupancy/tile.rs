@@ -7,10 +7,7 @@
 use std::collections::TryReserveError;
 
 use super::GridSpec;
-use super::kernel::{AxisNormal, axis_box, axis_span};
-
-/// The cells of a tile row are handled this many at a time (an AVX2 register of f32).
-const LANES: usize = 8;
+use super::kernel::{AxisNormal, LANES, axis_box, axis_span};
 
 /// `n` rounded up to a whole number of [`LANES`].
 fn lanes_for(n: usize) -> usize {

@@ -294,8 +294,8 @@ fn sample_normals(key: u64, k: usize, out: &mut Vec<DVec2>) {
 /// Bend one agent's samples (`tracks`, `lens`: `k` samples of `steps`) towards the
 /// motion model's path `bend.path` (see the [module documentation](self)), then make the
 /// first sample their mean path: every sample then reaches the horizon. `evidence` is
-/// the map's likelihood ratio for the person ([`map_evidence`]), `cv` the constant-velocity line the blend left (its
-/// start, its step), `blend` the blend's seconds (0: none), `key` the agent's key. The
+/// the map's likelihood ratio for the person ([`map_evidence`]), `cv` the
+/// constant-velocity line the blend left (its start, its step), `blend` the blend's seconds (0: none), `key` the agent's key. The
 /// same bits on every path (`simd` only lets the compiler use wider registers).
 #[allow(clippy::too_many_arguments)]
 pub(super) fn bend_to_motion(
@@ -332,6 +332,7 @@ pub(super) fn bend_to_motion(
     // the map's share at each step (one power per exponent: from about 3.5 s on the
     // exponent is 1/2 at every step)
     let near = evidence / (evidence + EVIDENCE_PRIOR.exp());
+    let far = evidence * evidence;
     let mut last = (f64::NAN.to_bits(), 0.0);
     for c in &mut bend.at {
         c.clear();
@@ -340,7 +341,6 @@ pub(super) fn bend_to_motion(
         if e.to_bits() != last.0 {
             last = (e.to_bits(), near.powf(e));
         }
-        let far = evidence * evidence;
         let share = last.1.max(far / (far + far_prior));
         let line = cv.0 + cv.1 * (j + 1) as f64;
         for (c, v) in bend.at.iter_mut().zip([share, w, line.x, line.y]) {
@@ -485,8 +485,8 @@ mod tests {
     use crate::motion::MotionModel;
 
     /// The map's share at one step from the person's likelihood ratio `odds`
-    /// ([`map_evidence`]): the larger of the near share `e^exponent` (`e` the evidence against
-    /// [`EVIDENCE_PRIOR`], `near` = `e`) and the far evidence, the ratio squared against
+    /// ([`map_evidence`]): the larger of the near share `near^exponent` (`near` the
+    /// evidence against [`EVIDENCE_PRIOR`]) and the far share, the ratio squared against
     /// `far_prior` ([`far_prior_odds`]).
     fn share(near: f64, exponent: f64, odds: f64, far_prior: f64) -> f64 {
         let far = odds * odds;
